@@ -1,0 +1,166 @@
+"""The Mona controller: follow the cue gradient, avoid walls, stop and clean on meeting a robot.
+
+Pure and vectorised: one :class:`SwarmController` holds the state of any number of robots, so
+the embedded runner steps the whole swarm at once and a controller node holds just its own
+robot. Each robot draws from its own random generator, seeded from (episode seed, robot id),
+so a robot behaves the same whichever runner hosts it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from mona_controller.mona import MonaParams
+from mona_controller.schema import ParameterError, param, validate
+
+#: Behaviour states (also published for markers and recorded in bags).
+FOLLOW, AVOID, WAIT, TURN = 0, 1, 2, 3
+STATE_NAMES = ('follow', 'avoid', 'wait', 'turn')
+
+#: The stream id of controller random generators (placement uses another).
+CONTROLLER_STREAM = 1
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerParams:
+    """Parameters of the gradient-following BEECLUST controller (method.md)."""
+
+    speed: float = param(0.08, unit='m/s', low=0.0, high=1.0,
+                         doc='forward speed v_r on a clean floor (beta = speed / wheel unit)')
+    alpha: float = param(2.0, unit='cue units per wheel unit', low=0.01, high=1e6,
+                         doc='gradient gain divisor of eq. 2')
+    wait_max: float = param(30.0, unit='s', low=0.0, high=3600.0,
+                            doc='w_max of eq. 1, the wait at an infinitely strong cue')
+    wait_half_constant: float = param(25000.0, unit='cue^2', low=1.0, high=1e9,
+                                      doc='S^2 at which the wait is half of wait_max (eq. 1)')
+    turn_min: float = param(math.pi / 2, unit='rad', low=0.0, high=2 * math.pi,
+                            doc='smallest turn after a wait (90 deg)')
+    turn_max: float = param(math.pi, unit='rad', low=0.0, high=2 * math.pi,
+                            doc='largest turn after a wait (180 deg)')
+    turn_speed: float = param(0.04, unit='m/s', low=0.001, high=1.0,
+                              doc='wheel speed while turning in place (walls, after a wait)')
+
+    def __post_init__(self) -> None:
+        validate(self, 'controller.')
+        if self.turn_min > self.turn_max:
+            raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
+                                 f'controller.turn_max = {self.turn_max}')
+
+
+def waiting_time(cue: np.ndarray | float, params: ControllerParams) -> np.ndarray | float:
+    """Eq. 1 (with the S^2 erratum): w = w_max * S^2 / (S^2 + 25000), S in [0, 255]."""
+    squared = np.square(cue, dtype=np.float64)
+    return params.wait_max * squared / (squared + params.wait_half_constant)
+
+
+def gradient_wheels(ground: np.ndarray, beta: float, alpha: float,
+                    max_command: float) -> np.ndarray:
+    """Eq. 2: wheel commands [N, 2] (left, right) from ground readings [N, 2] (left, right).
+
+    N_r = (s_l - s_r) / alpha + beta and N_l = (s_r - s_l) / alpha + beta, clamped to
+    [0, max_command]: the wheel on the weaker side runs faster, so the robot turns toward the
+    stronger cue.
+    """
+    ground = ground.astype(np.float64)
+    diff = (ground[:, 0] - ground[:, 1]) / alpha
+    wheels = np.empty((len(ground), 2))
+    wheels[:, 0] = beta - diff
+    wheels[:, 1] = beta + diff
+    return np.clip(wheels, 0.0, max_command, out=wheels)
+
+
+@dataclasses.dataclass
+class Command:
+    """What the controllers answer for one step."""
+
+    wheels: np.ndarray  #: [N, 2] float64, left and right wheel commands (wheel units)
+    cleaner: np.ndarray  #: [N] bool, the cleaning actuator
+
+
+class SwarmController:
+    """The controllers of the robots ``robot_ids``; readings and sim time in, commands out."""
+
+    def __init__(self, params: ControllerParams, mona: MonaParams,
+                 robot_ids: Sequence[int]) -> None:
+        self.params = params
+        self.mona = mona
+        self.robot_ids = np.asarray(robot_ids, dtype=np.int64)
+        self.beta = params.speed / mona.wheel_unit_speed
+        if self.beta > mona.max_wheel_command:
+            top = mona.max_wheel_command * mona.wheel_unit_speed
+            raise ParameterError(f'controller.speed = {params.speed} is out of range: allowed '
+                                 f'[0, {top:g}] m/s (beta = speed / wheel unit <= '
+                                 f'{mona.max_wheel_command:g})')
+        self.turn_command = min(params.turn_speed / mona.wheel_unit_speed,
+                                mona.max_wheel_command)
+        # In-place turn rate when both wheels run at +-turn_command.
+        self.turn_rate = 2 * self.turn_command * mona.wheel_unit_speed / mona.wheel_separation
+        self.bearings = mona.ir_bearings()
+        n = len(self.robot_ids)
+        self.state = np.full(n, FOLLOW, dtype=np.int8)
+        self.until = np.zeros(n)  # end time (s) of the current wait or turn
+        self.turn_direction = np.ones(n)  # +1 counter-clockwise, -1 clockwise
+        self.encounters = np.zeros(n, dtype=np.int64)
+        self.rngs: list[np.random.Generator] = []
+        self.reset(0)
+
+    def reset(self, seed: int) -> None:
+        """Start a new episode: every robot following the gradient, generators reseeded."""
+        self.state[:] = FOLLOW
+        self.until[:] = 0.0
+        self.turn_direction[:] = 1.0
+        self.encounters[:] = 0
+        self.rngs = [np.random.default_rng([seed, CONTROLLER_STREAM, int(i)])
+                     for i in self.robot_ids]
+
+    def step(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
+             now: float) -> Command:
+        """Advance every robot's behaviour and answer its wheel and cleaner commands.
+
+        Args:
+            ground: [N, 2] uint8 ground readings (left, right), 0..255.
+            ranges: [N, K] IR ranges from the body edge (m); inf where nothing is seen.
+            is_robot: [N, K] True where the obstacle seen is a robot.
+            now: sim time of the readings (s).
+        """
+        state, until = self.state, self.until
+        seen = np.isfinite(ranges)
+        robot_seen = (seen & is_robot).any(axis=1)
+        wall_beams = seen & ~is_robot
+        wall_seen = wall_beams.any(axis=1)
+
+        for i in np.flatnonzero((state == WAIT) & (now >= until)):
+            rng = self.rngs[i]
+            angle = rng.uniform(self.params.turn_min, self.params.turn_max)
+            self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
+            state[i] = TURN
+            until[i] = now + angle / self.turn_rate
+        state[(state == TURN) & (now >= until)] = FOLLOW
+        state[(state == AVOID) & ~wall_seen] = FOLLOW
+
+        meet = np.flatnonzero(((state == FOLLOW) | (state == AVOID)) & robot_seen)
+        if len(meet):
+            cue = ground[meet].astype(np.float64).mean(axis=1)
+            state[meet] = WAIT
+            until[meet] = now + waiting_time(cue, self.params)
+            self.encounters[meet] += 1
+
+        start_avoid = np.flatnonzero((state == FOLLOW) & wall_seen)
+        if len(start_avoid):
+            # Turn away from the side the wall is on (bearings > 0 are on the left).
+            side = (wall_beams[start_avoid] * self.bearings).sum(axis=1)
+            self.turn_direction[start_avoid] = np.where(side > 0, -1.0, 1.0)
+            state[start_avoid] = AVOID
+
+        wheels = gradient_wheels(ground, self.beta, self.params.alpha,
+                                 self.mona.max_wheel_command)
+        turning = (state == TURN) | (state == AVOID)
+        wheels[turning, 0] = -self.turn_direction[turning] * self.turn_command
+        wheels[turning, 1] = self.turn_direction[turning] * self.turn_command
+        waiting = state == WAIT
+        wheels[waiting] = 0.0
+        return Command(wheels=wheels, cleaner=waiting.copy())

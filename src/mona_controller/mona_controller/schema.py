@@ -1,0 +1,171 @@
+"""Typed parameters with units and ranges: one schema for the embedded runner and the nodes.
+
+A parameter section is a frozen dataclass whose fields are made with :func:`param`. Building
+one validates every field (type and range) and names the offending key in the error, so a bad
+value fails at start-up in either runner. :func:`from_mapping` builds a section from a (nested)
+mapping and rejects unknown keys; :func:`flat_fields` lists the fields as dotted ROS parameter
+names for the nodes to declare.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterator, Mapping
+from typing import Any, TypeVar
+
+T = TypeVar('T')
+
+SCALAR_TYPES = (bool, int, float, str)
+
+
+class ParameterError(ValueError):
+    """A parameter is unknown, of the wrong type, or outside its allowed range."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Spec:
+    """What a parameter means: its unit, description and allowed values."""
+
+    unit: str
+    doc: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] | None = None
+
+    def describe_range(self) -> str:
+        """The allowed values, for error messages and docs."""
+        if self.choices is not None:
+            return 'one of ' + ', '.join(repr(c) for c in self.choices)
+        low = '-inf' if self.low is None else f'{self.low:g}'
+        high = 'inf' if self.high is None else f'{self.high:g}'
+        unit = f' {self.unit}' if self.unit else ''
+        return f'[{low}, {high}]{unit}'
+
+
+def param(default: Any, *, unit: str = '', doc: str, low: float | None = None,
+          high: float | None = None, choices: tuple[str, ...] | None = None) -> Any:
+    """A dataclass field carrying its unit, description and allowed range (inclusive)."""
+    spec = Spec(unit=unit, doc=doc, low=low, high=high, choices=choices)
+    if isinstance(default, list):
+        default = tuple(default)
+    return dataclasses.field(default=default, metadata={'spec': spec})
+
+
+def spec_of(field: dataclasses.Field) -> Spec | None:
+    """The :class:`Spec` of a field made with :func:`param` (None for a nested section)."""
+    return field.metadata.get('spec')
+
+
+def _coerce(name: str, value: Any, default: Any, spec: Spec) -> Any:
+    """Check one value against its default's type and its spec; return it normalised."""
+    kind = type(default)
+    if kind is tuple:
+        if not isinstance(value, (list, tuple)) or not value:
+            raise ParameterError(f'{name} = {value!r}: expected a non-empty list')
+        element = default[0] if default else 0.0
+        return tuple(_coerce(f'{name}[{i}]', v, element, spec) for i, v in enumerate(value))
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ParameterError(f'{name} = {value!r}: expected true or false')
+        return value
+    if kind is str:
+        if not isinstance(value, str):
+            raise ParameterError(f'{name} = {value!r}: expected a string')
+        if spec.choices is not None and value not in spec.choices:
+            raise ParameterError(f'{name} = {value!r} is not allowed: {spec.describe_range()}')
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(f'{name} = {value!r}: expected a number {spec.describe_range()}')
+    if kind is int:
+        if isinstance(value, float) and not value.is_integer():
+            raise ParameterError(f'{name} = {value!r}: expected a whole number')
+        value = int(value)
+    else:
+        value = float(value)
+        if not math.isfinite(value):
+            raise ParameterError(f'{name} = {value!r}: expected a finite number')
+    if (spec.low is not None and value < spec.low) or (spec.high is not None
+                                                       and value > spec.high):
+        raise ParameterError(f'{name} = {value!r} is out of range: allowed '
+                             f'{spec.describe_range()} ({spec.doc})')
+    return value
+
+
+def validate(section: Any, prefix: str = '') -> None:
+    """Check and normalise every field of a frozen section in place (call from __post_init__).
+
+    Raises:
+        ParameterError: naming the dotted key, the value and the allowed range.
+    """
+    for field in dataclasses.fields(section):
+        spec = spec_of(field)
+        if spec is None:
+            continue
+        name = prefix + field.name
+        value = _coerce(name, getattr(section, field.name), field.default, spec)
+        object.__setattr__(section, field.name, value)
+
+
+def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = '') -> T:
+    """Build section ``cls`` from a nested mapping; missing keys take their defaults.
+
+    Raises:
+        ParameterError: for an unknown key (listing the known ones) or a bad value.
+    """
+    mapping = dict(mapping or {})
+    known = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(mapping) - set(known))
+    if unknown:
+        raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
+                             f'{prefix or "the top level"}: {", ".join(sorted(known))}')
+    values = {}
+    for name, value in mapping.items():
+        field = known[name]
+        if spec_of(field) is None:
+            if not isinstance(value, Mapping):
+                raise ParameterError(f'{prefix}{name} must be a section (a mapping)')
+            value = from_mapping(type(field.default_factory()), value, f'{prefix}{name}.')
+        values[name] = value
+    try:
+        return cls(**values)
+    except ParameterError as error:
+        if prefix and not str(error).startswith(prefix):
+            raise ParameterError(prefix + str(error)) from None
+        raise
+
+
+def to_mapping(section: Any) -> dict[str, Any]:
+    """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
+    out: dict[str, Any] = {}
+    for field in dataclasses.fields(section):
+        value = getattr(section, field.name)
+        if spec_of(field) is None:
+            out[field.name] = to_mapping(value)
+        else:
+            out[field.name] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def flat_fields(cls: type, prefix: str = '') -> Iterator[tuple[str, Any, Spec]]:
+    """Every leaf field as (dotted name, default, spec), for declaring ROS parameters."""
+    instance = cls()
+    for field in dataclasses.fields(cls):
+        spec = spec_of(field)
+        value = getattr(instance, field.name)
+        if spec is None:
+            yield from flat_fields(type(value), f'{prefix}{field.name}.')
+        else:
+            yield f'{prefix}{field.name}', value, spec
+
+
+def unflatten(flat: Mapping[str, Any]) -> dict[str, Any]:
+    """Turn dotted keys (``world.arena_side``) into nested mappings."""
+    nested: dict[str, Any] = {}
+    for key, value in flat.items():
+        node = nested
+        *parents, leaf = key.split('.')
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    return nested

@@ -1,0 +1,24 @@
+from setuptools import find_packages, setup
+
+package_name = 'swarm_metrics'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['numpy', 'rosbags', 'mcap', 'swarm_world'],
+    zip_safe=True,
+    maintainer='Mona swarm developers',
+    maintainer_email='mona-swarm@example.org',
+    description='The study metrics, rosbag2/MCAP bag writing and reading, plus the metrics node.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'metrics_node = swarm_metrics.metrics_node:main',
+        ],
+    },
+)

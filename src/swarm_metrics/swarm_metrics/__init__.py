@@ -1,0 +1,1 @@
+"""The study's metrics, bag recording and analysis, and the metrics node."""

@@ -1,0 +1,25 @@
+from setuptools import find_packages, setup
+
+package_name = 'swarm_supervisor'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['numpy', 'PyYAML', 'tqdm', 'matplotlib', 'statsmodels', 'pandas', 'mona_controller', 'swarm_world', 'swarm_metrics'],
+    zip_safe=True,
+    maintainer='Mona swarm developers',
+    maintainer_email='mona-swarm@example.org',
+    description='Placement, episodes, the embedded runner, the study and the mona-swarm CLI, plus the supervisor node.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'supervisor_node = swarm_supervisor.supervisor_node:main',
+            'mona-swarm = swarm_supervisor.cli:main',
+        ],
+    },
+)

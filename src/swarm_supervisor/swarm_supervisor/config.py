@@ -1,0 +1,130 @@
+"""The whole parameter set of a run, loaded from the one YAML both runners read.
+
+The file is a ROS 2 parameter file whose ``/**`` wildcard section holds every parameter, so
+``--ros-args --params-file`` hands the same values to each node::
+
+    /**:
+      ros__parameters:
+        episode: {population: 30, duration: 4000.0, seed: 1}
+        world: {arena_side: 2.85, ...}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from mona_controller.controller import ControllerParams
+from mona_controller.mona import MonaParams
+from mona_controller.schema import ParameterError, from_mapping, param, to_mapping, validate
+from swarm_metrics.metrics import MetricsParams
+from swarm_world.params import WorldParams
+
+#: The parameter file shipped with the project.
+DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / 'ros_ws' / 'config' / 'mona_swarm.yaml'
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeParams:
+    """One episode: how many robots, for how long, from which seed."""
+
+    population: int = param(30, unit='robots', low=0, high=1000,
+                            doc='number of Monas (N)')
+    duration: float = param(4000.0, unit='s', low=0.001, high=1e7,
+                            doc='simulated length of the episode')
+    seed: int = param(1, low=0, high=2**63 - 1,
+                      doc='episode seed: placement and every controller derive from it')
+
+    def __post_init__(self) -> None:
+        validate(self, 'episode.')
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyParams:
+    """The factorial design of the study (method.md): populations x speeds x seeds."""
+
+    populations: tuple[int, ...] = param((10, 20, 30, 40, 50), unit='robots', low=0,
+                                         high=1000, doc='population factor N')
+    speeds: tuple[float, ...] = param((0.04, 0.08), unit='m/s', low=0.0, high=1.0,
+                                      doc='speed factor v_r')
+    seeds: tuple[int, ...] = param((1, 2, 3, 4, 5, 6), low=0, high=2**63 - 1,
+                                   doc='one repetition per seed in each cell')
+    duration: float = param(4000.0, unit='s', low=0.001, high=1e7,
+                            doc='episode length')
+    snapshot_times: tuple[float, ...] = param((0.0, 1000.0, 4000.0), unit='s', low=0.0,
+                                              high=1e7, doc='when to keep cue maps (fig. 3)')
+
+    def __post_init__(self) -> None:
+        validate(self, 'study.')
+
+
+@dataclasses.dataclass(frozen=True)
+class SwarmConfig:
+    """Every parameter of a run, by section."""
+
+    episode: EpisodeParams = dataclasses.field(default_factory=EpisodeParams)
+    mona: MonaParams = dataclasses.field(default_factory=MonaParams)
+    world: WorldParams = dataclasses.field(default_factory=WorldParams)
+    controller: ControllerParams = dataclasses.field(default_factory=ControllerParams)
+    metrics: MetricsParams = dataclasses.field(default_factory=MetricsParams)
+    study: StudyParams = dataclasses.field(default_factory=StudyParams)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every parameter as a nested plain mapping (for JSON, YAML and bag metadata)."""
+        return to_mapping(self)
+
+    def replace(self, **sections: dict[str, Any]) -> SwarmConfig:
+        """A copy with some fields changed, e.g. ``replace(episode={'seed': 3})``; validated."""
+        merged = self.to_dict()
+        for name, values in sections.items():
+            if name not in merged:
+                raise ParameterError(f'unknown parameter section {name}')
+            merged[name].update(values)
+        return from_mapping(SwarmConfig, merged)
+
+    def steps(self) -> int:
+        """Steps in one episode (the duration rounded up to whole steps)."""
+        return math.ceil(round(self.episode.duration * 1e9) / self.world.step_ns)
+
+
+def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> SwarmConfig:
+    """Build a config from a parsed ROS parameter file (its ``/**`` section)."""
+    if not isinstance(document, dict) or '/**' not in document:
+        raise ParameterError(f"{source}: expected a ROS 2 parameter file with a '/**' section")
+    section = document['/**']
+    if not isinstance(section, dict) or set(section) != {'ros__parameters'}:
+        raise ParameterError(f"{source}: '/**' must hold exactly 'ros__parameters'")
+    return from_mapping(SwarmConfig, section['ros__parameters'] or {})
+
+
+def load_config(path: str | Path | None = None) -> SwarmConfig:
+    """Load and validate a parameter file (the shipped default when ``path`` is None).
+
+    Raises:
+        ParameterError: the file is missing, not YAML, or holds an unknown or bad parameter.
+    """
+    if path is None:
+        if not DEFAULT_CONFIG.exists():  # installed without the source tree
+            return SwarmConfig()
+        path = DEFAULT_CONFIG
+    path = Path(path)
+    try:
+        document = yaml.safe_load(path.read_text())
+    except OSError as error:
+        raise ParameterError(f'cannot read {path}: {error.strerror}') from None
+    except yaml.YAMLError as error:
+        raise ParameterError(f'{path} is not valid YAML: {error}') from None
+    try:
+        return config_from_ros_yaml(document, str(path))
+    except ParameterError as error:
+        raise ParameterError(f'{path}: {error}') from None
+
+
+def write_ros_yaml(config: SwarmConfig, path: str | Path) -> None:
+    """Write a config as a ROS 2 parameter file that :func:`load_config` reads back."""
+    Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': config.to_dict()}},
+                                         sort_keys=False))

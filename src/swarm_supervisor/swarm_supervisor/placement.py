@@ -1,0 +1,62 @@
+"""Randomised initial placement of the swarm, as the Webots supervisor did."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: The random stream id of placement (controllers use another).
+PLACEMENT_STREAM = 0
+#: Robots may cover at most this fraction of the arena floor.
+MAX_COVERAGE = 0.4
+#: Attempts per robot before placement gives up.
+TRIES_PER_ROBOT = 2000
+
+
+class PlacementError(ValueError):
+    """The population cannot be placed in the arena."""
+
+
+def placement_rng(seed: int) -> np.random.Generator:
+    """The generator placement draws from for an episode seed."""
+    return np.random.default_rng([seed, PLACEMENT_STREAM])
+
+
+def place_robots(population: int, arena_side: float, body_radius: float,
+                 rng: np.random.Generator, *, gap: float = 0.005) -> np.ndarray:
+    """Uniformly random, non-overlapping poses with uniform headings.
+
+    Robots keep ``gap`` metres from the walls and from each other, so none starts touching.
+
+    Returns:
+        [population, 3] float64 poses (x m, y m, heading rad in [-pi, pi)).
+
+    Raises:
+        PlacementError: if the robots would cover more than 40 % of the arena or rejection
+            sampling does not converge; the message names the population and the arena.
+    """
+    coverage = population * math.pi * body_radius ** 2 / arena_side ** 2
+    if coverage > MAX_COVERAGE:
+        raise PlacementError(
+            f'population {population} does not fit a {arena_side} m arena: robots of radius '
+            f'{body_radius} m would cover {coverage:.0%} of the floor (at most '
+            f'{MAX_COVERAGE:.0%})')
+    low, high = body_radius + gap, arena_side - body_radius - gap
+    if low >= high:
+        raise PlacementError(f'a robot of radius {body_radius} m does not fit a '
+                             f'{arena_side} m arena')
+    min_distance_sq = (2 * body_radius + gap) ** 2
+    poses = np.empty((population, 3))
+    for k in range(population):
+        for _ in range(TRIES_PER_ROBOT):
+            x, y = rng.uniform(low, high, size=2)
+            placed = poses[:k]
+            if not np.any((placed[:, 0] - x) ** 2 + (placed[:, 1] - y) ** 2 < min_distance_sq):
+                break
+        else:
+            raise PlacementError(f'placing population {population} in a {arena_side} m arena '
+                                 f'did not converge: robot {k} found no free spot in '
+                                 f'{TRIES_PER_ROBOT} tries')
+        poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
+    return poses

@@ -1,0 +1,54 @@
+"""The cue (contamination) raster: building the paper's disc and cleaning it (eq. 3).
+
+The raster is float32 [rows, cols] with row = y cell and col = x cell, so cell (0, 0) is the
+corner at the world origin (as in nav_msgs/OccupancyGrid).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swarm_world.params import WorldParams
+
+
+def disc_cue(params: WorldParams) -> np.ndarray:
+    """The initial cue: peak at the arena centre, falling linearly to 0 at the disc's rim."""
+    n = params.cells
+    centres = (np.arange(n) + 0.5) * params.cell_size
+    cx, cy = params.centre
+    distance = np.hypot(centres[None, :] - cx, centres[:, None] - cy)
+    radius = params.cue_diameter / 2
+    if radius == 0:
+        return np.zeros((n, n), dtype=np.float32)
+    values = params.cue_peak * np.clip(1.0 - distance / radius, 0.0, None)
+    return values.astype(np.float32)
+
+
+def cleaning_kernel(radius: int, peak: float) -> np.ndarray:
+    """Eq. 3's patch: the cell at offset (p, q) loses peak - sqrt(p^2 + q^2), never < 0."""
+    offsets = np.arange(-radius, radius + 1)
+    amount = peak - np.hypot(offsets[None, :], offsets[:, None])
+    return np.clip(amount, 0.0, None).astype(np.float32)
+
+
+def cell_index(xy: np.ndarray, cell_size: float, cells: int) -> np.ndarray:
+    """Integer (col, row) of the cells under points [N, 2] (m), clipped to the raster."""
+    return np.clip(np.floor(xy / cell_size).astype(np.int64), 0, cells - 1)
+
+
+def clean(cue: np.ndarray, cells: np.ndarray, kernel: np.ndarray, *,
+          literal_levels: np.ndarray | None = None) -> None:
+    """Apply eq. 3 in place for each robot cell (col, row) in ``cells`` [M, 2], in order.
+
+    Monotone (default): each cell loses the kernel amount, floored at 0. Literal: each cell
+    becomes the robot's mean sensor reading (``literal_levels`` [M]) minus the amount, floored
+    at 0, as the paper writes it (this can raise cells cleaner than the reading).
+    """
+    radius = kernel.shape[0] // 2
+    rows, cols = cue.shape
+    for k, (col, row) in enumerate(cells):
+        r0, r1 = max(row - radius, 0), min(row + radius + 1, rows)
+        c0, c1 = max(col - radius, 0), min(col + radius + 1, cols)
+        patch = kernel[r0 - row + radius:r1 - row + radius, c0 - col + radius:c1 - col + radius]
+        base = cue[r0:r1, c0:c1] if literal_levels is None else np.float32(literal_levels[k])
+        np.maximum(base - patch, 0.0, out=cue[r0:r1, c0:c1])

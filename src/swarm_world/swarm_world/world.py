@@ -1,0 +1,113 @@
+"""The world engine: arena, cue, physics and sensors behind a reset / sense / step contract.
+
+Both runners drive this one class: the embedded runner calls it directly, the world node wraps
+it. Sim time is kept in integer nanoseconds so that a time carried by a ROS stamp converts back
+exactly; ``now = time_ns / 1e9`` is the one conversion every component uses.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from mona_controller.mona import MonaParams
+from swarm_world import cue as cue_field
+from swarm_world.params import WorldParams
+from swarm_world.physics import Physics
+from swarm_world.sensors import ground_readings, proximity
+
+
+@dataclasses.dataclass
+class Readings:
+    """What every robot senses at one instant (a Mona driver publishes the same)."""
+
+    time_ns: int  #: sim time of the readings
+    ground: np.ndarray  #: [N, 2] uint8, left and right ground sensors
+    ranges: np.ndarray  #: [N, K] float32, IR ranges from the body edge (m), inf = nothing
+    is_robot: np.ndarray  #: [N, K] bool, the obstacle seen is a robot
+
+    @property
+    def now(self) -> float:
+        """Sim time in seconds."""
+        return self.time_ns / 1e9
+
+
+class World:
+    """N Monas in the walled arena on the cue field."""
+
+    def __init__(self, params: WorldParams, mona: MonaParams) -> None:
+        self.params = params
+        self.mona = mona
+        self.bearings = mona.ir_bearings()
+        self.initial_cue = cue_field.disc_cue(params)
+        self.initial_mean_cue = float(self.initial_cue.mean(dtype=np.float64))
+        self.kernel = cue_field.cleaning_kernel(params.cleaning_radius, params.cleaning_peak)
+        self.cue = self.initial_cue.copy()
+        self.physics = Physics(params.arena_side, mona.body_radius, np.zeros((0, 3)),
+                               params.collision_slop)
+        self.time_ns = 0
+        self.steps = 0
+        self.cleaning = np.zeros(0, dtype=bool)
+
+    @property
+    def population(self) -> int:
+        """The number of robots in the current episode."""
+        return self.physics.count
+
+    @property
+    def poses(self) -> np.ndarray:
+        """[N, 3] float64 (x m, y m, heading rad) in the world frame."""
+        return self.physics.poses
+
+    @property
+    def now(self) -> float:
+        """Sim time in seconds."""
+        return self.time_ns / 1e9
+
+    def reset(self, poses: np.ndarray) -> None:
+        """Start an episode: restore the cue, rebuild the physics with robots at ``poses``."""
+        poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        self.cue = self.initial_cue.copy()
+        self.physics = Physics(self.params.arena_side, self.mona.body_radius, poses,
+                               self.params.collision_slop)
+        self.time_ns = 0
+        self.steps = 0
+        self.cleaning = np.zeros(len(poses), dtype=bool)
+
+    def sense(self) -> Readings:
+        """Every robot's readings at the current time."""
+        poses = self.poses
+        ground = ground_readings(self.cue, self.params.cell_size, poses,
+                                 self.mona.wheel_separation)
+        ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
+                                     self.mona.ir_range, self.params.arena_side)
+        return Readings(self.time_ns, ground, ranges, is_robot)
+
+    def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
+        """Advance one step with these commands; clean on each cleaning-period boundary.
+
+        Args:
+            linear: [N] forward speeds (m/s).
+            angular: [N] turn rates (rad/s, counter-clockwise).
+            cleaner: [N] bool, the cleaning actuators.
+        """
+        self.cleaning = np.asarray(cleaner, dtype=bool)
+        self.physics.step(linear, angular, self.params.step_period)
+        before = self.time_ns
+        self.steps += 1
+        self.time_ns = self.steps * self.params.step_ns
+        period_ns = round(self.params.cleaning_period * 1e9)
+        if self.time_ns // period_ns > before // period_ns and self.cleaning.any():
+            self._clean(np.flatnonzero(self.cleaning))
+
+    def _clean(self, robots: np.ndarray) -> None:
+        """Eq. 3 under each cleaning robot, in robot order."""
+        poses = self.poses[robots]
+        cells = cue_field.cell_index(poses[:, :2], self.params.cell_size, self.params.cells)
+        levels = None
+        if self.params.cleaning == 'literal':
+            ground = ground_readings(self.cue, self.params.cell_size, poses,
+                                     self.mona.wheel_separation)
+            levels = ground.astype(np.float64).mean(axis=1)
+        cue_field.clean(self.cue, cells, self.kernel, literal_levels=levels)
