@@ -1,0 +1,49 @@
+"""The ``mona-swarm`` command: run an episode, run the study, replay and analyse bags.
+
+Each subcommand lives in its own module exposing ``register(subparsers)``, which adds its
+parser and sets ``handler``; a handler returns the exit status. Bad arguments and bad
+parameters exit with status 2 and a one-line message naming the problem.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from mona_controller.schema import ParameterError
+from swarm_supervisor.placement import PlacementError
+
+#: Modules that contribute subcommands, in the order ``--help`` lists them.
+COMMAND_MODULES = (
+    'swarm_supervisor.run_command',
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog='mona-swarm',
+        description='Mona swarm pollution-source localisation and cleanup (BEECLUST).')
+    subparsers = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(subparsers)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the process exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except (ParameterError, PlacementError) as error:
+        print(f'mona-swarm {args.command}: error: {error}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f'mona-swarm {args.command}: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())
