@@ -49,6 +49,7 @@ class World:
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(0, dtype=bool)
+        self.cleaned = np.zeros(0, dtype=np.int64)  # robots that cleaned in the last step
 
     @property
     def population(self) -> int:
@@ -74,6 +75,7 @@ class World:
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(len(poses), dtype=bool)
+        self.cleaned = np.zeros(0, dtype=np.int64)
 
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
@@ -98,8 +100,10 @@ class World:
         self.steps += 1
         self.time_ns = self.steps * self.params.step_ns
         period_ns = round(self.params.cleaning_period * 1e9)
+        self.cleaned = np.zeros(0, dtype=np.int64)
         if self.time_ns // period_ns > before // period_ns and self.cleaning.any():
-            self._clean(np.flatnonzero(self.cleaning))
+            self.cleaned = np.flatnonzero(self.cleaning)
+            self._clean(self.cleaned)
 
     def _clean(self, robots: np.ndarray) -> None:
         """Eq. 3 under each cleaning robot, in robot order."""

@@ -1,0 +1,67 @@
+"""The topic contract in code: topic names and their named QoS profiles (docs/interfaces.md).
+
+Every node takes its names and QoS from here, so publisher and subscriber always match. Per
+robot topics are relative names, resolved in the robot's namespace ``/mona_<i>``.
+"""
+
+from __future__ import annotations
+
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
+
+
+def _profile(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+
+
+#: ground, proximity and cmd_vel: every reading and every answer must arrive (lockstep).
+SENSOR_QOS = _profile(5)
+COMMAND_QOS = _profile(5)
+#: The cleaning actuator is a state: a late joiner gets the latest one.
+CLEANER_QOS = _profile(1, latched=True)
+#: /clock as the ROS clock QoS (rclpy's time source subscribes best effort, depth 1).
+CLOCK_QOS = _profile(1, reliable=False)
+POSES_QOS = _profile(10)
+CLEANING_QOS = _profile(100)
+#: The cue map, its grid, /world/status and /episode: the latest value, kept for late joiners.
+LATCHED_QOS = _profile(1, latched=True)
+MAP_QOS = LATCHED_QOS
+STATUS_QOS = LATCHED_QOS
+EPISODE_QOS = LATCHED_QOS
+MARKERS_QOS = _profile(1)
+
+# Per robot, relative to the namespace /mona_<i>.
+GROUND = 'ground'
+PROXIMITY = 'proximity'
+CMD_VEL = 'cmd_vel'
+CLEANER = 'cleaner'
+
+# World and supervisor (absolute).
+CLOCK = '/clock'
+POSES = '/world/poses'
+CLEANING = '/world/cleaning'
+CUE_MAP = '/world/cue_map'
+CUE_GRID = '/world/cue_grid'
+MARKERS = '/world/markers'
+STATUS = '/world/status'
+EPISODE = '/episode'
+
+#: The world frame (REP 103: origin at an arena corner, x and y along the walls).
+WORLD_FRAME = 'world'
+
+
+def robot_namespace(robot_id: int) -> str:
+    """The namespace of robot ``robot_id`` (ROS names must not start with a digit)."""
+    return f'/mona_{robot_id}'
+
+
+def robot_topic(robot_id: int, name: str) -> str:
+    """The absolute name of a per-robot topic, e.g. ``/mona_3/cmd_vel``."""
+    return f'{robot_namespace(robot_id)}/{name}'
+
+
+def base_frame(robot_id: int) -> str:
+    """The body frame of robot ``robot_id``."""
+    return f'mona_{robot_id}/base_link'

@@ -1,0 +1,109 @@
+"""Declare a parameter section of the schema as ROS parameters, and build it back.
+
+The schema (:mod:`mona_controller.schema`) is the one source of truth: each field becomes a
+read-only ROS parameter whose descriptor carries the field's description, unit and range, so
+``ros2 param describe`` shows what the YAML comments say. The values the node received
+(``--params-file``, ``-p``) are then validated by building the frozen dataclass, exactly as
+the embedded runner does; any problem raises :class:`~mona_controller.schema.ParameterError`
+naming the parameter and its allowed range.
+"""
+
+from __future__ import annotations
+
+import array
+import math
+import re
+from collections.abc import Iterable
+from typing import Any, TypeVar
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+
+from mona_controller.schema import ParameterError, Spec, flat_fields, from_mapping, unflatten
+
+T = TypeVar('T')
+
+INT64_MIN, INT64_MAX = -2**63, 2**63 - 1
+
+
+def descriptor(name: str, default: Any, spec: Spec) -> ParameterDescriptor:
+    """The ROS descriptor of one schema field: description with unit, range, read-only.
+
+    Types are dynamic so that, as in the embedded runner, ``2`` is accepted for a float; the
+    schema checks the type when the section is built.
+    """
+    unit = f' [{spec.unit}]' if spec.unit else ''
+    desc = ParameterDescriptor(name=name, description=spec.doc + unit, read_only=True,
+                               dynamic_typing=True,
+                               additional_constraints=spec.describe_range())
+    scalar = default[0] if isinstance(default, tuple) and default else default
+    if spec.low is None and spec.high is None or isinstance(default, tuple):
+        return desc
+    if isinstance(scalar, bool):
+        return desc
+    if isinstance(scalar, int):
+        low = INT64_MIN if spec.low is None else max(math.ceil(spec.low), INT64_MIN)
+        high = INT64_MAX if spec.high is None else min(math.floor(spec.high), INT64_MAX)
+        desc.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+    elif isinstance(scalar, float):
+        low = -math.inf if spec.low is None else float(spec.low)
+        high = math.inf if spec.high is None else float(spec.high)
+        desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high,
+                                                        step=0.0)]
+    return desc
+
+
+def _plain(value: Any) -> Any:
+    """A parameter value as the schema expects it (arrays become lists)."""
+    if isinstance(value, (array.array, tuple)):
+        return list(value)
+    if hasattr(value, 'tolist'):  # numpy arrays from some rclpy paths
+        return value.tolist()
+    return value
+
+
+def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
+    """Declare every field of section ``cls`` under ``prefix`` and build it from the values.
+
+    Args:
+        node: the node to declare on.
+        cls: a schema section (or a composition of sections such as the whole config).
+        prefix: the dotted prefix of the section, e.g. ``'controller.'`` ('' for none).
+
+    Raises:
+        ParameterError: an out-of-range, mistyped or unknown value, naming the parameter and
+            its allowed range.
+    """
+    values = {}
+    for name, default, spec in flat_fields(cls, prefix):
+        ros_default = list(default) if isinstance(default, tuple) else default
+        try:
+            param = node.declare_parameter(name, ros_default, descriptor(name, default, spec))
+        except ParameterException as error:
+            # rclpy checks the range itself when the override arrives: say it the schema's way.
+            found = re.search(r'Invalid parameter value \((.*)\) for parameter', str(error))
+            value = found.group(1) if found else '?'
+            raise ParameterError(f'{name} = {value} is out of range: allowed '
+                                 f'{spec.describe_range()} ({spec.doc})') from None
+        values[name[len(prefix):]] = _plain(param.value)
+    check_unknown(node, [prefix] if prefix else sorted({n.split('.')[0] + '.' for n in values}),
+                  set(prefix + n for n in values))
+    return from_mapping(cls, unflatten(values), prefix)
+
+
+def check_unknown(node: Node, prefixes: Iterable[str], known: set[str]) -> None:
+    """Reject an override under ``prefixes`` that the node did not declare (a typo in YAML).
+
+    The embedded runner rejects unknown keys; so must the nodes, or a misspelt parameter would
+    silently keep its default in one runner only.
+    """
+    overrides = getattr(node, '_parameter_overrides', {})  # rclpy keeps them only privately
+    for name in sorted(overrides):
+        if any(name.startswith(p) for p in prefixes) and name not in known:
+            section = next(p for p in prefixes if name.startswith(p))
+            choices = ', '.join(sorted(k[len(section):] for k in known
+                                       if k.startswith(section)))
+            raise ParameterError(f'unknown parameter {name}; known in {section[:-1]}: '
+                                 f'{choices}')
+
