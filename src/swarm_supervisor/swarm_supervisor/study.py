@@ -1,0 +1,346 @@
+"""The study as data: populations x speeds x seeds, run in parallel, resumable, as one table.
+
+Each episode of the design gets a folder ``DIR/episodes/N<pop>_v<cm/s>_s<seed>/`` written by
+:func:`swarm_supervisor.outputs.write_episode`; its episode.json is written last, so a folder
+without it is half-written and is run again, while a complete one is kept. The episodes of a
+study (or any folders holding metrics.csv + episode.json, e.g. from ROS bags) become one tidy
+table, ``all_metrics.csv``, with one row per episode and sample::
+
+    population, speed, seed, t, mean_cue, mean_cue_fraction, ratio_near_source, coherency
+
+``speed`` is in m/s, like every speed in the parameter file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+import multiprocessing
+import os
+import signal
+import sys
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from mona_controller.schema import ParameterError
+from swarm_metrics.metrics import COLUMNS
+from swarm_supervisor import outputs
+from swarm_supervisor.config import StudyParams, SwarmConfig, write_ros_yaml
+from swarm_supervisor.runner import run_episode
+
+EPISODES_DIR = 'episodes'
+TABLE_FILE = 'all_metrics.csv'
+PARAMETERS_FILE = 'parameters.yaml'
+TIMING_FILE = 'study.json'
+KEYS = ('population', 'speed', 'seed')
+TABLE_COLUMNS = KEYS + COLUMNS
+
+
+class StudyError(ParameterError):
+    """The study's folder or episodes do not fit the requested design."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSpec:
+    """One cell of the design and one repetition in it."""
+
+    population: int
+    speed: float  #: m/s
+    seed: int
+
+    @property
+    def name(self) -> str:
+        """The episode's folder name, e.g. ``N30_v8_s1`` (speed in cm/s)."""
+        return f'N{self.population}_v{self.speed * 100:g}_s{self.seed}'
+
+
+def design(study: StudyParams) -> list[EpisodeSpec]:
+    """Every episode of the design, in factor order (populations, then speeds, then seeds)."""
+    return [EpisodeSpec(n, v, s) for n, v, s in
+            itertools.product(study.populations, study.speeds, study.seeds)]
+
+
+def quick_study(study: StudyParams) -> StudyParams:
+    """A reduced design for a smoke test: N = 5 and 10, the same speeds, two seeds, 60 s.
+
+    The snapshot times are scaled from the full duration to the short one, so fig. 3 still
+    shows the start, an intermediate and the end of the episode.
+    """
+    duration = 60.0
+    scale = duration / study.duration
+    return dataclasses.replace(
+        study, populations=(5, 10), seeds=study.seeds[:2], duration=duration,
+        snapshot_times=tuple(sorted({round(t * scale, 3) for t in study.snapshot_times})))
+
+
+def episode_config(config: SwarmConfig, spec: EpisodeSpec) -> SwarmConfig:
+    """The full configuration of one episode of ``config.study``."""
+    return config.replace(
+        episode={'population': spec.population, 'seed': spec.seed,
+                 'duration': config.study.duration},
+        controller={'speed': spec.speed})
+
+
+def snapshot_times(study: StudyParams) -> tuple[float, ...]:
+    """When each episode keeps a cue map: the study's times within the episode, and its end."""
+    return tuple(sorted({t for t in study.snapshot_times if t <= study.duration}
+                        | {study.duration}))
+
+
+# Worker side: each worker runs whole episodes and writes them; only small tuples come back.
+
+_progress_counter = None  # sim seconds done, shared by every worker (a multiprocessing Value)
+_PROGRESS_STEP = 10.0  # s of sim time between counter updates (the counter takes a lock)
+
+
+def _init_worker(counter) -> None:
+    """Pool initializer: share the progress counter; leave Ctrl-C to the parent."""
+    global _progress_counter
+    _progress_counter = counter
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _report_progress(seconds: float) -> None:
+    if _progress_counter is not None and seconds > 0:
+        with _progress_counter.get_lock():
+            _progress_counter.value += seconds
+
+
+def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]) -> tuple[str, float]:
+    """Run one episode and write its folder; return (folder, wall seconds incl. writing)."""
+    config, times, folder = task
+    started = time.perf_counter()
+    reported = [0.0]
+
+    def progress(t: float) -> None:
+        if t - reported[0] >= _PROGRESS_STEP:
+            _report_progress(t - reported[0])
+            reported[0] = t
+
+    result = run_episode(config, snapshot_times=times, progress=progress)
+    _report_progress(config.episode.duration - reported[0])
+    outputs.write_episode(result, folder)
+    return folder, time.perf_counter() - started
+
+
+# Parent side.
+
+def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
+    """The parameters as episode.json stores them (after a JSON round trip)."""
+    return json.loads(json.dumps(config.to_dict()))
+
+
+def _check_kept(folder: Path, config: SwarmConfig) -> None:
+    """Refuse to mix a finished episode run with other parameters into this study."""
+    record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+    stored = record.get('parameters', {})
+    expected = _expected_parameters(config)
+    for section, values in expected.items():
+        if section == 'study':  # the design around the episode does not change it
+            continue
+        for key, value in values.items():
+            if stored.get(section, {}).get(key) != value:
+                raise StudyError(
+                    f'{folder} was run with {section}.{key} = '
+                    f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}; '
+                    'use another --out folder or delete that episode')
+
+
+def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
+              progress: bool | None = None,
+              start_method: str = 'spawn') -> list[dict[str, float]]:
+    """Run every missing episode of ``config.study`` into ``out_dir`` and tabulate them all.
+
+    Episodes already complete in ``out_dir/episodes`` are kept (after checking they were run
+    with the same parameters); the others run longest-first over ``jobs`` worker processes.
+    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, wall times) and
+    ``all_metrics.csv``. Ctrl-C terminates the workers; finished episodes stay on disk and the
+    next call resumes from them.
+
+    Args:
+        jobs: worker processes (default: the CPUs this process may use).
+        progress: show progress bars on stderr (None: only on a terminal).
+        start_method: the multiprocessing context ('spawn' or 'fork').
+
+    Returns:
+        The tidy table as flat rows (one dict per episode and sample), columns
+        :data:`TABLE_COLUMNS`.
+
+    Raises:
+        StudyError: a finished episode in ``out_dir`` was run with other parameters.
+    """
+    started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
+    out = Path(out_dir)
+    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
+    write_ros_yaml(config, out / PARAMETERS_FILE)
+    study = config.study
+    times = snapshot_times(study)
+    specs = design(study)
+    folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
+    pending = []
+    for spec in specs:
+        episode = episode_config(config, spec)
+        if outputs.episode_complete(folders[spec]):
+            _check_kept(folders[spec], episode)
+        else:
+            pending.append((episode, times, str(folders[spec])))
+    # Longest first (cost grows with N), so the workers run out of work together.
+    pending.sort(key=lambda task: -task[0].episode.population * task[0].episode.duration)
+    jobs = max(1, min(jobs or _available_cpus(), len(pending) or 1))
+    ran = _run_pending(pending, jobs, progress, start_method)
+    rows = tidy_table([folders[spec] for spec in specs]).to_dict('records')
+    write_table(rows, out / TABLE_FILE)
+    _record_invocation(out / TIMING_FILE, {
+        'started': stamp,
+        'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
+        'wall_time_s': round(time.perf_counter() - started, 3),
+        'episode_wall_time_s': {Path(folder).name: round(seconds, 3)
+                                for folder, seconds in sorted(ran.items())},
+    })
+    return rows
+
+
+def _record_invocation(path: Path, entry: dict[str, Any]) -> None:
+    """Append one invocation (what ran, wall times) to study.json's history."""
+    try:
+        history = json.loads(path.read_text())['invocations']
+    except (OSError, ValueError, KeyError, TypeError):
+        history = []
+    path.write_text(json.dumps({'invocations': history + [entry]}, indent=2) + '\n')
+
+
+def read_invocations(out_dir: str | Path) -> list[dict[str, Any]]:
+    """The history of ``run_study`` calls on a folder (empty if none was recorded)."""
+    try:
+        return json.loads((Path(out_dir) / TIMING_FILE).read_text())['invocations']
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+
+
+def _available_cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _run_pending(pending: list, jobs: int, progress: bool | None,
+                 start_method: str) -> dict[str, float]:
+    """Run the tasks over a pool of ``jobs`` processes with progress bars; folder -> seconds."""
+    if not pending:
+        return {}
+    context = multiprocessing.get_context(start_method)
+    counter = context.Value('d', 0.0)
+    total = sum(task[0].episode.duration for task in pending)
+    ran: dict[str, float] = {}
+    pool = context.Pool(jobs, initializer=_init_worker, initargs=(counter,))
+    bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
+                 '[{elapsed}<{remaining}]'
+    try:
+        with tqdm(total=len(pending), desc='episodes', unit='episodes', position=0,
+                  disable=None if progress is None else not progress, file=sys.stderr,
+                  bar_format=bar_format) as episodes, \
+             tqdm(total=total, desc='sim time', unit='sim s', position=1,
+                  disable=None if progress is None else not progress, file=sys.stderr,
+                  bar_format=bar_format) as seconds:
+            results = pool.imap_unordered(_run_and_write, pending, chunksize=1)
+            while len(ran) < len(pending):
+                try:
+                    folder, wall = results.next(timeout=0.5)
+                except multiprocessing.TimeoutError:
+                    pass
+                else:
+                    ran[folder] = wall
+                    episodes.update(1)
+                    episodes.set_postfix_str(Path(folder).name, refresh=False)
+                seconds.update(min(counter.value, total) - seconds.n)
+        pool.close()
+    except BaseException:  # Ctrl-C or a failed episode: stop every worker now
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+    return ran
+
+
+def find_episodes(paths: Iterable[str | Path]) -> list[Path]:
+    """Every complete episode folder (metrics.csv + episode.json) at or under ``paths``."""
+    found = set()
+    for path in map(Path, paths):
+        if not path.exists():
+            raise StudyError(f'{path} does not exist')
+        candidates = [path] if (path / outputs.EPISODE_FILE).exists() else []
+        candidates += [p.parent for p in path.rglob(outputs.EPISODE_FILE)]
+        found.update(p for p in candidates if outputs.episode_complete(p))
+    return sorted(found)
+
+
+def episode_key(folder: Path) -> dict[str, Any]:
+    """The factor levels of an episode folder, from its episode.json (either runner's)."""
+    try:
+        record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+        parameters = record.get('parameters', {})
+        return {
+            'population': int(record.get('population',
+                                         parameters.get('episode', {}).get('population'))),
+            'speed': float(record.get('speed', parameters.get('controller', {}).get('speed'))),
+            'seed': int(record.get('seed', parameters.get('episode', {}).get('seed'))),
+        }
+    except (OSError, ValueError, TypeError, AttributeError) as error:
+        raise StudyError(f'{folder / outputs.EPISODE_FILE}: cannot read population, speed '
+                         f'and seed ({error})') from None
+
+
+def tidy_table(folders: Sequence[Path]) -> pd.DataFrame:
+    """All episodes as one table (columns :data:`TABLE_COLUMNS`), sorted by episode and t.
+
+    Raises:
+        StudyError: a folder's files are unreadable, or two folders hold the same episode.
+    """
+    frames, seen = [], {}
+    for folder in map(Path, folders):
+        key = episode_key(folder)
+        identity = tuple(key.values())
+        if identity in seen:
+            raise StudyError(f'{seen[identity]} and {folder} are the same episode (N, speed, '
+                             'seed); analyse them separately')
+        seen[identity] = folder
+        try:
+            metrics = pd.read_csv(folder / outputs.METRICS_FILE)
+        except (OSError, ValueError) as error:
+            raise StudyError(f'{folder / outputs.METRICS_FILE}: {error}') from None
+        missing = [c for c in COLUMNS if c not in metrics.columns]
+        if missing:
+            raise StudyError(f'{folder / outputs.METRICS_FILE} lacks columns {missing}')
+        frames.append(metrics[list(COLUMNS)].assign(**key))
+    if not frames:
+        raise StudyError('no episodes to tabulate')
+    table = pd.concat(frames, ignore_index=True)[list(TABLE_COLUMNS)]
+    return table.sort_values(list(KEYS) + ['t'], kind='stable', ignore_index=True)
+
+
+def write_table(rows: list[dict[str, float]] | pd.DataFrame, path: str | Path) -> None:
+    """Write the tidy table as CSV (floats at full precision)."""
+    frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows, columns=TABLE_COLUMNS)
+    frame.to_csv(path, index=False)
+
+
+def read_table(path: str | Path) -> pd.DataFrame:
+    """Read ``all_metrics.csv`` back (checks its columns)."""
+    table = pd.read_csv(path)
+    missing = [c for c in TABLE_COLUMNS if c not in table.columns]
+    if missing:
+        raise StudyError(f'{path} lacks columns {missing}')
+    return table
+
+
+def summarize_design(table: pd.DataFrame) -> dict[str, list]:
+    """The factor levels present in a tidy table."""
+    return {key: sorted(np.unique(table[key]).tolist()) for key in KEYS}
