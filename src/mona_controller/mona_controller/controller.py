@@ -65,12 +65,11 @@ def gradient_wheels(ground: np.ndarray, beta: float, alpha: float,
     [0, max_command]: the wheel on the weaker side runs faster, so the robot turns toward the
     stronger cue.
     """
-    ground = ground.astype(np.float64)
-    diff = (ground[:, 0] - ground[:, 1]) / alpha
+    diff = (ground[:, 0].astype(np.float64) - ground[:, 1]) / alpha
     wheels = np.empty((len(ground), 2))
-    wheels[:, 0] = beta - diff
-    wheels[:, 1] = beta + diff
-    return np.clip(wheels, 0.0, max_command, out=wheels)
+    np.subtract(beta, diff, out=wheels[:, 0])
+    np.add(beta, diff, out=wheels[:, 1])
+    return np.minimum(np.maximum(wheels, 0.0, out=wheels), max_command, out=wheels)
 
 
 @dataclasses.dataclass
@@ -128,39 +127,48 @@ class SwarmController:
             now: sim time of the readings (s).
         """
         state, until = self.state, self.until
-        seen = np.isfinite(ranges)
-        robot_seen = (seen & is_robot).any(axis=1)
-        wall_beams = seen & ~is_robot
+        seen = ranges < np.inf
+        robot_beams = seen & is_robot
+        robot_seen = robot_beams.any(axis=1)
+        wall_beams = seen ^ robot_beams
         wall_seen = wall_beams.any(axis=1)
 
-        for i in np.flatnonzero((state == WAIT) & (now >= until)):
-            rng = self.rngs[i]
-            angle = rng.uniform(self.params.turn_min, self.params.turn_max)
-            self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
-            state[i] = TURN
-            until[i] = now + angle / self.turn_rate
-        state[(state == TURN) & (now >= until)] = FOLLOW
+        timed_out = (state >= WAIT) & (now >= until)
+        if timed_out.any():
+            for i in np.flatnonzero(timed_out):
+                if state[i] == TURN:
+                    state[i] = FOLLOW
+                    continue
+                rng = self.rngs[i]
+                angle = rng.uniform(self.params.turn_min, self.params.turn_max)
+                self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
+                state[i] = TURN
+                until[i] = now + angle / self.turn_rate
         state[(state == AVOID) & ~wall_seen] = FOLLOW
 
-        meet = np.flatnonzero(((state == FOLLOW) | (state == AVOID)) & robot_seen)
-        if len(meet):
-            cue = ground[meet].astype(np.float64).mean(axis=1)
-            state[meet] = WAIT
-            until[meet] = now + waiting_time(cue, self.params)
-            self.encounters[meet] += 1
+        if robot_seen.any():
+            meet = np.flatnonzero(robot_seen & (state <= AVOID))
+            if len(meet):
+                cue = ground[meet].astype(np.float64).mean(axis=1)
+                state[meet] = WAIT
+                until[meet] = now + waiting_time(cue, self.params)
+                self.encounters[meet] += 1
 
-        start_avoid = np.flatnonzero((state == FOLLOW) & wall_seen)
-        if len(start_avoid):
-            # Turn away from the side the wall is on (bearings > 0 are on the left).
-            side = (wall_beams[start_avoid] * self.bearings).sum(axis=1)
-            self.turn_direction[start_avoid] = np.where(side > 0, -1.0, 1.0)
-            state[start_avoid] = AVOID
+        if wall_seen.any():
+            start_avoid = np.flatnonzero(wall_seen & (state == FOLLOW))
+            if len(start_avoid):
+                # Turn away from the side the wall is on (bearings > 0 are on the left).
+                side = wall_beams[start_avoid] @ self.bearings
+                self.turn_direction[start_avoid] = np.where(side > 0, -1.0, 1.0)
+                state[start_avoid] = AVOID
 
         wheels = gradient_wheels(ground, self.beta, self.params.alpha,
                                  self.mona.max_wheel_command)
-        turning = (state == TURN) | (state == AVOID)
-        wheels[turning, 0] = -self.turn_direction[turning] * self.turn_command
-        wheels[turning, 1] = self.turn_direction[turning] * self.turn_command
-        waiting = state == WAIT
-        wheels[waiting] = 0.0
-        return Command(wheels=wheels, cleaner=waiting.copy())
+        cleaner = state == WAIT
+        if state.any():  # anyone not following the gradient
+            turning = (state == TURN) | (state == AVOID)
+            spin = self.turn_direction[turning] * self.turn_command
+            wheels[turning, 0] = -spin
+            wheels[turning, 1] = spin
+            wheels[cleaner] = 0.0
+        return Command(wheels=wheels, cleaner=cleaner)

@@ -24,7 +24,8 @@ def placement_rng(seed: int) -> np.random.Generator:
 
 
 def place_robots(population: int, arena_side: float, body_radius: float,
-                 rng: np.random.Generator, *, gap: float = 0.005) -> np.ndarray:
+                 rng: np.random.Generator, *, gap: float = 0.005,
+                 tries_per_robot: int = TRIES_PER_ROBOT) -> np.ndarray:
     """Uniformly random, non-overlapping poses with uniform headings.
 
     Robots keep ``gap`` metres from the walls and from each other, so none starts touching.
@@ -49,7 +50,7 @@ def place_robots(population: int, arena_side: float, body_radius: float,
     min_distance_sq = (2 * body_radius + gap) ** 2
     poses = np.empty((population, 3))
     for k in range(population):
-        for _ in range(TRIES_PER_ROBOT):
+        for _ in range(tries_per_robot):
             x, y = rng.uniform(low, high, size=2)
             placed = poses[:k]
             if not np.any((placed[:, 0] - x) ** 2 + (placed[:, 1] - y) ** 2 < min_distance_sq):
@@ -57,6 +58,6 @@ def place_robots(population: int, arena_side: float, body_radius: float,
         else:
             raise PlacementError(f'placing population {population} in a {arena_side} m arena '
                                  f'did not converge: robot {k} found no free spot in '
-                                 f'{TRIES_PER_ROBOT} tries')
+                                 f'{tries_per_robot} tries')
         poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
     return poses

@@ -8,29 +8,47 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarm_world.cue import cell_index
-
 
 def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
-                    wheel_separation: float) -> np.ndarray:
-    """The cue under the left and right wheels, [N, 2] uint8 (left, right)."""
+                    wheel_separation: float, cos: np.ndarray | None = None,
+                    sin: np.ndarray | None = None) -> np.ndarray:
+    """The cue under the left and right wheels, [N, 2] uint8 (left, right).
+
+    ``cos`` and ``sin`` of the headings may be passed in when already known.
+    """
+    if cos is None:
+        cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
     half = wheel_separation / 2
-    # The left wheel is at +y in the body frame (REP 103), i.e. at heading + 90 deg.
-    ox = -np.sin(poses[:, 2]) * half
-    oy = np.cos(poses[:, 2]) * half
-    points = np.empty((len(poses), 2, 2))
-    points[:, 0, 0] = poses[:, 0] + ox
-    points[:, 0, 1] = poses[:, 1] + oy
-    points[:, 1, 0] = poses[:, 0] - ox
-    points[:, 1, 1] = poses[:, 1] - oy
-    idx = cell_index(points, cell_size, cue.shape[0])
-    values = cue[idx[..., 1], idx[..., 0]]
-    return np.clip(np.rint(values), 0, 255).astype(np.uint8)
+    # The left wheel is at +y in the body frame (REP 103): offset (-sin, cos) * half.
+    side = np.array([1.0, -1.0])
+    cols = (poses[:, 0, None] - np.multiply.outer(sin * half, side)) / cell_size
+    rows = (poses[:, 1, None] + np.multiply.outer(cos * half, side)) / cell_size
+    last = cue.shape[0] - 1
+    cols = np.clip(cols, 0, last).astype(np.int64)  # clip first: no float->int overflow
+    rows = np.clip(rows, 0, last).astype(np.int64)
+    return np.rint(cue[rows, cols]).astype(np.uint8)
+
+
+def all_pairs_within(positions: np.ndarray, distance: float) -> np.ndarray:
+    """Every ordered pair (i, j), i != j, of points closer than ``distance``: [P, 2].
+
+    The brute-force broadphase; the world gets the same pairs from pymunk's sensor rings.
+    """
+    delta = positions[None, :, :] - positions[:, None, :]
+    close = np.einsum('ijk,ijk->ij', delta, delta) < distance * distance
+    np.fill_diagonal(close, False)
+    return np.argwhere(close)
 
 
 def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_range: float,
-              arena_side: float) -> tuple[np.ndarray, np.ndarray]:
+              arena_side: float, *, near_wall: np.ndarray | None = None,
+              pairs: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Cast each robot's IR beams against the other robots and the walls.
+
+    Args:
+        near_wall: robots that may see a wall (default: computed from the poses).
+        pairs: [P, 2] (robot, other) pairs that may see each other (default: brute force).
+            Passing a superset changes nothing; only speed.
 
     Returns:
         ranges: [N, K] float32, distance from the body edge to the first obstacle within
@@ -38,41 +56,41 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
         is_robot: [N, K] bool, True where that obstacle is another robot.
     """
     n, k = len(poses), len(bearings)
-    wall_hit = np.full((n, k), np.inf)
-    robot_hit = np.full((n, k), np.inf)
     reach = body_radius + ir_range  # beam end, from the robot centre
     x, y, theta = poses[:, 0], poses[:, 1], poses[:, 2]
+    if near_wall is None:
+        near_wall = np.flatnonzero((x < reach) | (y < reach) | (x > arena_side - reach)
+                                   | (y > arena_side - reach))
+    if pairs is None:
+        pairs = all_pairs_within(poses[:, :2], 2 * body_radius + ir_range)
+    best = np.full((n, k), np.inf)
+    is_robot = np.zeros((n, k), dtype=bool)
+    if len(near_wall) == 0 and len(pairs) == 0:
+        return best.astype(np.float32), is_robot
 
-    # Walls: only robots whose beams can reach one need the cast.
-    near_wall = np.flatnonzero((x < reach) | (y < reach) | (x > arena_side - reach)
-                               | (y > arena_side - reach))
     if len(near_wall):
-        angle = theta[near_wall, None] + bearings[None, :]
+        angle = theta[near_wall, None] + bearings
         ux, uy = np.cos(angle), np.sin(angle)
         px, py = x[near_wall, None], y[near_wall, None]
         with np.errstate(divide='ignore', invalid='ignore'):
             tx = np.where(ux > 0, (arena_side - px) / ux, np.where(ux < 0, -px / ux, np.inf))
             ty = np.where(uy > 0, (arena_side - py) / uy, np.where(uy < 0, -py / uy, np.inf))
         hit = np.minimum(tx, ty)
-        wall_hit[near_wall] = np.where(hit <= reach, hit, np.inf)
+        best[near_wall] = np.where(hit <= reach, hit, np.inf)
 
-    # Robots: candidate pairs are closer than two radii plus the range.
-    if n > 1:
-        dx = x[None, :] - x[:, None]
-        dy = y[None, :] - y[:, None]
-        close = dx * dx + dy * dy < (2 * body_radius + ir_range) ** 2
-        np.fill_diagonal(close, False)
-        i, j = np.nonzero(close)
-        if len(i):
-            angle = theta[i, None] + bearings[None, :]
-            ux, uy = np.cos(angle), np.sin(angle)
-            ddx, ddy = dx[i, j][:, None], dy[i, j][:, None]
-            b = ux * ddx + uy * ddy  # projection of the other centre on the beam
-            disc = b * b - (ddx * ddx + ddy * ddy - body_radius * body_radius)
-            with np.errstate(invalid='ignore'):
-                t = np.maximum(b - np.sqrt(disc), 0.0)  # 0 when the bodies overlap
-            valid = (disc >= 0) & (b > 0) & (t <= reach)
-            np.minimum.at(robot_hit, i, np.where(valid, t, np.inf))
-    best = np.minimum(wall_hit, robot_hit)
+    if len(pairs):
+        i, j = pairs[:, 0], pairs[:, 1]
+        angle = theta[i, None] + bearings
+        ux, uy = np.cos(angle), np.sin(angle)
+        dx, dy = (x[j] - x[i])[:, None], (y[j] - y[i])[:, None]
+        b = ux * dx + uy * dy  # projection of the other centre on the beam
+        disc = b * b - (dx * dx + dy * dy - body_radius * body_radius)
+        with np.errstate(invalid='ignore'):
+            t = np.maximum(b - np.sqrt(disc), 0.0)  # 0 when the bodies overlap
+        t[~((disc >= 0) & (b > 0) & (t <= reach))] = np.inf
+        robot_hit = np.full((n, k), np.inf)
+        np.minimum.at(robot_hit, i, t)
+        is_robot = robot_hit < best
+        np.minimum(best, robot_hit, out=best)
     ranges = np.maximum(best - body_radius, 0.0).astype(np.float32)
-    return ranges, np.isfinite(best) & (robot_hit < wall_hit)
+    return ranges, is_robot

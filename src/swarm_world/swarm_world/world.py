@@ -44,8 +44,7 @@ class World:
         self.initial_mean_cue = float(self.initial_cue.mean(dtype=np.float64))
         self.kernel = cue_field.cleaning_kernel(params.cleaning_radius, params.cleaning_peak)
         self.cue = self.initial_cue.copy()
-        self.physics = Physics(params.arena_side, mona.body_radius, np.zeros((0, 3)),
-                               params.collision_slop)
+        self.physics = self._physics(np.zeros((0, 3)))
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(0, dtype=bool)
@@ -70,20 +69,27 @@ class World:
         """Start an episode: restore the cue, rebuild the physics with robots at ``poses``."""
         poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         self.cue = self.initial_cue.copy()
-        self.physics = Physics(self.params.arena_side, self.mona.body_radius, poses,
-                               self.params.collision_slop)
+        self.physics = self._physics(poses)
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(len(poses), dtype=bool)
         self.cleaned = np.zeros(0, dtype=np.int64)
 
+    def _physics(self, poses: np.ndarray) -> Physics:
+        return Physics(self.params.arena_side, self.mona.body_radius, poses,
+                       self.params.collision_slop,
+                       ring_radius=self.mona.body_radius + self.mona.ir_range)
+
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
-        poses = self.poses
+        physics = self.physics
+        poses = physics.poses
         ground = ground_readings(self.cue, self.params.cell_size, poses,
-                                 self.mona.wheel_separation)
+                                 self.mona.wheel_separation, physics.cos, physics.sin)
+        near_wall, pairs = physics.candidates()
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
-                                     self.mona.ir_range, self.params.arena_side)
+                                     self.mona.ir_range, self.params.arena_side,
+                                     near_wall=near_wall, pairs=pairs)
         return Readings(self.time_ns, ground, ranges, is_robot)
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
