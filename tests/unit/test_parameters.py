@@ -1,0 +1,67 @@
+"""The one parameter schema: YAML loading, unknown keys, ranges, messages that name the key."""
+
+import pytest
+
+from mona_controller.controller import ControllerParams
+from mona_controller.schema import ParameterError, flat_fields, from_mapping
+from swarm_supervisor.config import (DEFAULT_CONFIG, SwarmConfig, load_config,
+                                     write_ros_yaml)
+
+
+def test_shipped_yaml_equals_the_defaults():
+    assert DEFAULT_CONFIG.exists()
+    assert load_config() == SwarmConfig()
+
+
+def test_round_trip_through_yaml(tmp_path):
+    config = SwarmConfig().replace(episode={'population': 12, 'seed': 99},
+                                   world={'cleaning': 'literal'})
+    write_ros_yaml(config, tmp_path / 'p.yaml')
+    assert load_config(tmp_path / 'p.yaml') == config
+
+
+@pytest.mark.parametrize('section, values, fragment', [
+    ('episode', {'population': -3}, 'episode.population = -3 is out of range: allowed [0, 1000]'),
+    ('episode', {'population': 2.5}, 'episode.population = 2.5: expected a whole number'),
+    ('controller', {'speed': -0.01}, 'controller.speed = -0.01 is out of range'),
+    ('controller', {'alpha': 'two'}, 'controller.alpha'),
+    ('world', {'cleaning': 'scrub'}, "world.cleaning = 'scrub' is not allowed"),
+    ('controller', {'turn_min': 3.0, 'turn_max': 2.0}, 'controller.turn_min'),
+    ('mona', {'ir_count': True}, 'mona.ir_count'),
+])
+def test_bad_values_name_the_key_and_range(section, values, fragment):
+    with pytest.raises(ParameterError, match=None) as error:
+        SwarmConfig().replace(**{section: values})
+    assert fragment in str(error.value)
+
+
+def test_unknown_key_is_rejected_with_the_known_ones(tmp_path):
+    path = tmp_path / 'bad.yaml'
+    path.write_text('/**:\n  ros__parameters:\n    controller:\n      alpah: 3.0\n')
+    with pytest.raises(ParameterError) as error:
+        load_config(path)
+    message = str(error.value)
+    assert 'unknown parameter controller.alpah' in message and 'alpha' in message
+
+
+def test_file_that_is_not_a_parameter_file(tmp_path):
+    path = tmp_path / 'x.yaml'
+    path.write_text('controller: {alpha: 2}\n')
+    with pytest.raises(ParameterError, match="'/\\*\\*' section"):
+        load_config(path)
+    with pytest.raises(ParameterError, match='cannot read'):
+        load_config(tmp_path / 'missing.yaml')
+
+
+def test_speed_beyond_the_wheel_clamp_is_rejected():
+    from mona_controller.controller import SwarmController
+    from mona_controller.mona import MonaParams
+    with pytest.raises(ParameterError, match=r'controller.speed = 0.2 is out of range'):
+        SwarmController(ControllerParams(speed=0.2), MonaParams(), [0])
+
+
+def test_flat_fields_give_dotted_ros_names():
+    names = {name for name, _, _ in flat_fields(SwarmConfig)}
+    assert {'episode.population', 'controller.alpha', 'world.arena_side',
+            'study.populations'} <= names
+    assert from_mapping(ControllerParams, {'alpha': 3}).alpha == 3.0
