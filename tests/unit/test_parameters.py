@@ -65,3 +65,13 @@ def test_flat_fields_give_dotted_ros_names():
     assert {'episode.population', 'controller.alpha', 'world.arena_side',
             'study.populations'} <= names
     assert from_mapping(ControllerParams, {'alpha': 3}).alpha == 3.0
+
+
+def test_parameter_reference_matches_the_schema():
+    from pathlib import Path
+
+    from swarm_supervisor.paramdoc import render
+    page = Path(__file__).resolve().parents[2] / 'docs' / 'parameters.md'
+    assert page.read_text() == render(), (
+        'docs/parameters.md is stale: run python -m swarm_supervisor.paramdoc > '
+        'docs/parameters.md')
