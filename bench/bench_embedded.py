@@ -30,11 +30,14 @@ def split(config, steps: int) -> dict[str, float]:
     clock = time.perf_counter
     for _ in range(steps):
         t0 = clock()
-        ground = ground_readings(world.cue, world.params.cell_size, world.poses,
-                                 world.mona.wheel_separation)
+        physics = world.physics
+        ground = ground_readings(world.cue, world.params.cell_size, physics.poses,
+                                 world.mona.wheel_separation, physics.cos, physics.sin)
         t1 = clock()
-        ranges, is_robot = proximity(world.poses, world.mona.body_radius, world.bearings,
-                                     world.mona.ir_range, world.params.arena_side)
+        near_wall, pairs = physics.candidates()
+        ranges, is_robot = proximity(physics.poses, world.mona.body_radius, world.bearings,
+                                     world.mona.ir_range, world.params.arena_side,
+                                     near_wall=near_wall, pairs=pairs)
         t2 = clock()
         command = controllers.step(ground, ranges, is_robot, world.now)
         t3 = clock()
@@ -75,7 +78,7 @@ def main() -> None:
     print(f'  4000 s episode at N = {largest}: about {4000 / factors[largest]:.1f} s wall; '
           f'target 250x -> {factors[largest] / 250:.2f} of target')
     config = base.replace(episode={'population': largest, 'seed': args.seed})
-    parts = split(config, steps=3000)
+    parts = split(config, steps=6000)
     total = sum(parts.values())
     print(f'where a step goes at N = {largest} (us per step, instrumented):')
     for name, value in parts.items():

@@ -40,6 +40,7 @@ class Physics:
         self.count = len(poses)
         self.ring_pairs: set[tuple[int, int]] = set()  # (robot, other robot) rings touching
         self.ring_walls: dict[int, int] = {}  # robot -> number of walls its ring touches
+        self._candidates: tuple[np.ndarray, np.ndarray] | None = None  # cache until a change
         moment = pymunk.moment_for_circle(BODY_MASS, 0.0, body_radius)
         self._inertia = np.array([BODY_MASS, BODY_MASS, moment])
         body_filter = pymunk.ShapeFilter(categories=_BODY, mask=_BODY | _RING | _WALL)
@@ -89,18 +90,22 @@ class Physics:
         self.space.step(1e-9)  # find the ring contacts of the initial placement (nothing moves)
 
     def _ring_robot_begin(self, arbiter: pymunk.Arbiter, space, data) -> None:
+        self._candidates = None
         ring, other = arbiter.shapes
         self.ring_pairs.add((ring.robot, other.robot))
 
     def _ring_robot_end(self, arbiter: pymunk.Arbiter, space, data) -> None:
+        self._candidates = None
         ring, other = arbiter.shapes
         self.ring_pairs.discard((ring.robot, other.robot))
 
     def _ring_wall_begin(self, arbiter: pymunk.Arbiter, space, data) -> None:
+        self._candidates = None
         robot = arbiter.shapes[0].robot
         self.ring_walls[robot] = self.ring_walls.get(robot, 0) + 1
 
     def _ring_wall_end(self, arbiter: pymunk.Arbiter, space, data) -> None:
+        self._candidates = None
         robot = arbiter.shapes[0].robot
         left = self.ring_walls.get(robot, 0) - 1
         if left > 0:
@@ -110,9 +115,11 @@ class Physics:
 
     def candidates(self) -> tuple[np.ndarray, np.ndarray]:
         """Robots whose IR ring touches a wall, and (robot, other) pairs whose rings touch."""
-        walls = np.array(sorted(self.ring_walls), dtype=np.int64)
-        pairs = np.array(sorted(self.ring_pairs), dtype=np.int64).reshape(-1, 2)
-        return walls, pairs
+        if self._candidates is None:
+            walls = np.array(sorted(self.ring_walls), dtype=np.int64)
+            pairs = np.array(sorted(self.ring_pairs), dtype=np.int64).reshape(-1, 2)
+            self._candidates = (walls, pairs)
+        return self._candidates
 
     def step(self, linear: np.ndarray, angular: np.ndarray, dt: float) -> np.ndarray:
         """Drive every robot at (linear m/s, angular rad/s) for ``dt`` seconds; return poses."""

@@ -67,27 +67,32 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
     is_robot = np.zeros((n, k), dtype=bool)
     if len(near_wall) == 0 and len(pairs) == 0:
         return best.astype(np.float32), is_robot
+    # Beam directions as unit complex numbers: heading times bearing, no trig per beam.
+    beams = np.exp(1j * bearings)
+    heading = np.exp(1j * theta)
 
     if len(near_wall):
-        angle = theta[near_wall, None] + bearings
-        ux, uy = np.cos(angle), np.sin(angle)
+        u = heading[near_wall, None] * beams
+        ux, uy = u.real, u.imag
         px, py = x[near_wall, None], y[near_wall, None]
         with np.errstate(divide='ignore', invalid='ignore'):
             tx = np.where(ux > 0, (arena_side - px) / ux, np.where(ux < 0, -px / ux, np.inf))
             ty = np.where(uy > 0, (arena_side - py) / uy, np.where(uy < 0, -py / uy, np.inf))
         hit = np.minimum(tx, ty)
-        best[near_wall] = np.where(hit <= reach, hit, np.inf)
+        hit[hit > reach] = np.inf
+        best[near_wall] = hit
 
     if len(pairs):
-        i, j = pairs[:, 0], pairs[:, 1]
-        angle = theta[i, None] + bearings
-        ux, uy = np.cos(angle), np.sin(angle)
-        dx, dy = (x[j] - x[i])[:, None], (y[j] - y[i])[:, None]
-        b = ux * dx + uy * dy  # projection of the other centre on the beam
-        disc = b * b - (dx * dx + dy * dy - body_radius * body_radius)
+        i = pairs[:, 0]
+        centres = x + 1j * y
+        offset = centres[pairs[:, 1]] - centres[i]  # from robot i to the other centre
+        # Projection of the other centre on each beam: Re(u * conj(offset)).
+        b = (heading[i, None] * beams * offset.conj()[:, None]).real
+        gap = (offset.real ** 2 + offset.imag ** 2 - body_radius * body_radius)[:, None]
+        disc = b * b - gap
         with np.errstate(invalid='ignore'):
             t = np.maximum(b - np.sqrt(disc), 0.0)  # 0 when the bodies overlap
-        t[~((disc >= 0) & (b > 0) & (t <= reach))] = np.inf
+        t[(disc < 0) | (b <= 0) | (t > reach)] = np.inf
         robot_hit = np.full((n, k), np.inf)
         np.minimum.at(robot_hit, i, t)
         is_robot = robot_hit < best
