@@ -1,0 +1,282 @@
+"""The controller node: one Mona's controller behind its ground, proximity and cmd_vel topics.
+
+A thin adapter around :class:`~mona_controller.controller.SwarmController` holding one robot.
+It pairs the ``ground`` and ``proximity`` readings that carry the same stamp and answers each
+pair exactly once: ``cleaner`` first, then ``cmd_vel`` stamped with the readings' stamp. Time
+comes from that stamp, ``now = (stamp_ns - start_ns) / 1e9``, exactly as the embedded runner
+computes it, and the episode announcement on ``/episode`` resets the controller and its random
+generator from ``(seed, robot_id)``.
+
+Run one robot per process (the default)::
+
+    mona_controller_node --ros-args -r __ns:=/mona_3 --params-file mona_swarm.yaml
+    mona_controller_node --robots 3 --ros-args --params-file mona_swarm.yaml
+
+or several robots as separate nodes in one process (fewer DDS participants)::
+
+    mona_controller_node --robots 0-9 --ros-args --params-file mona_swarm.yaml
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import re
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.task import Future
+from sensor_msgs.msg import Image, LaserScan
+from std_msgs.msg import Bool, String
+
+from mona_controller import qos
+from mona_controller.controller import ControllerParams, SwarmController
+from mona_controller.messages import (ReadingError, fill_twist, ground_from_image,
+                                      proximity_from_scan, stamp_to_ns)
+from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.ros_params import declare_section
+from mona_controller.schema import ParameterError, param, to_mapping, validate
+
+#: Unanswered readings kept per topic while the other half of the pair is on its way.
+PENDING_LIMIT = 16
+#: Wall seconds between repeated warnings about bad input.
+WARN_EVERY = 5.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerNodeParams:
+    """Options of the controller node itself (not part of the model)."""
+
+    robot_id: int = param(-1, low=-1, high=99999,
+                          doc='the robot this node controls; -1 takes it from the namespace '
+                              '/mona_<id>')
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+def robot_id_of(namespace: str, requested: int) -> int:
+    """The robot id from the ``robot_id`` parameter or the namespace ``/mona_<id>``."""
+    match = re.fullmatch(r'/mona_(\d+)', namespace)
+    if requested >= 0:
+        if match is None or int(match.group(1)) != requested:
+            raise ParameterError(f'robot_id = {requested} needs the namespace '
+                                 f'{qos.robot_namespace(requested)}, the node runs in '
+                                 f'{namespace!r}: start it with --robots {requested} or '
+                                 f'--ros-args -r __ns:={qos.robot_namespace(requested)}')
+        return requested
+    if match is None:
+        raise ParameterError(f'robot_id is not set and the namespace {namespace!r} is not '
+                             '/mona_<id>: start the node with --robots <id> or --ros-args -r '
+                             '__ns:=/mona_<id>')
+    return int(match.group(1))
+
+
+class ControllerNode(Node):
+    """The controller of one Mona (namespace ``/mona_<robot_id>``)."""
+
+    def __init__(self, robot_id: int | None = None, **kwargs) -> None:
+        overrides = [Parameter('use_sim_time', value=True)]
+        namespace = None
+        if robot_id is not None:
+            overrides.append(Parameter('robot_id', value=robot_id))
+            namespace = qos.robot_namespace(robot_id)
+        super().__init__('mona_controller', namespace=namespace, parameter_overrides=overrides,
+                         **kwargs)
+        options = declare_section(self, ControllerNodeParams)
+        self.robot_id = robot_id_of(self.get_namespace(), options.robot_id)
+        self.mona = declare_section(self, MonaParams, 'mona.')
+        self.params = declare_section(self, ControllerParams, 'controller.')
+        self.controller = SwarmController(self.params, self.mona, [self.robot_id])
+
+        self.finished = Future()  #: done when the supervisor announces the shutdown
+        self.episode: dict | None = None  # the current announcement, None before the first
+        self.active = False  # this robot takes part in the current episode
+        self.answered_ns = -1  # the stamp of the last readings answered
+        self.ground: dict[int, np.ndarray | None] = {}  # stamp -> reading (None = malformed)
+        self.scans: dict[int, tuple[np.ndarray, np.ndarray] | None] = {}
+
+        self.cleaner_msg = Bool()
+        self.twist_msg = TwistStamped()
+        self.twist_msg.header.frame_id = qos.base_frame(self.robot_id)
+        self.cleaner_pub = self.create_publisher(Bool, qos.CLEANER, qos.CLEANER_QOS)
+        self.cmd_pub = self.create_publisher(TwistStamped, qos.CMD_VEL, qos.COMMAND_QOS)
+        self.create_subscription(Image, qos.GROUND, self.on_ground, qos.SENSOR_QOS)
+        self.create_subscription(LaserScan, qos.PROXIMITY, self.on_proximity, qos.SENSOR_QOS)
+        self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
+        self.get_logger().info(f'robot {self.robot_id} ready, waiting for an episode')
+
+    # --- episodes -----------------------------------------------------------------------
+
+    def on_episode(self, msg: String) -> None:
+        """Reset for a new episode, or finish on the shutdown announcement."""
+        try:
+            announcement = json.loads(msg.data)
+            if announcement.get('shutdown'):
+                self.get_logger().info('shutdown announced')
+                if not self.finished.done():
+                    self.finished.set_result(True)
+                return
+            key = (int(announcement['episode']), int(announcement['seed']),
+                   int(announcement['start_ns']))
+            population = int(announcement['population'])
+        except (ValueError, KeyError, TypeError, AttributeError) as error:
+            self.get_logger().error(f'ignoring a malformed /episode announcement ({error!r}): '
+                                    f'{msg.data[:200]}')
+            return
+        if self.episode is not None and self.episode['key'] == key:
+            return  # the same announcement again (e.g. redelivered): keep the state
+        episode, seed, start_ns = key
+        self.episode = {'key': key, 'start_ns': start_ns}
+        self.active = self.robot_id < population
+        self.controller.reset(seed)
+        self.answered_ns = start_ns - 1
+        self._check_parameters(announcement.get('parameters') or {})
+        self.get_logger().info(f'episode {episode}: seed {seed}, start {start_ns} ns, '
+                               + ('active' if self.active else 'not in this population'))
+        for stamp in sorted(set(self.ground) & set(self.scans)):
+            self._try_answer(stamp)
+
+    def _check_parameters(self, announced: dict) -> None:
+        """Warn when the supervisor runs other model parameters than this node."""
+        for section, mine in (('mona', self.mona), ('controller', self.params)):
+            theirs = announced.get(section)
+            if theirs is not None and theirs != to_mapping(mine):
+                self.get_logger().error(
+                    f'the episode announces {section} parameters {theirs} but this node runs '
+                    f'{to_mapping(mine)}: start every node with the same --params-file')
+
+    # --- readings -----------------------------------------------------------------------
+
+    def on_ground(self, msg: Image) -> None:
+        stamp = stamp_to_ns(msg.header.stamp)
+        try:
+            self.ground[stamp] = ground_from_image(msg).reshape(1, 2)
+        except ReadingError as error:
+            self._warn(str(error))
+            self.ground[stamp] = None
+        self._try_answer(stamp)
+
+    def on_proximity(self, msg: LaserScan) -> None:
+        stamp = stamp_to_ns(msg.header.stamp)
+        try:
+            ranges, is_robot, note = proximity_from_scan(msg, self.mona.ir_count)
+            if note:
+                self._warn(note)
+            self.scans[stamp] = (ranges.reshape(1, -1), is_robot.reshape(1, -1))
+        except ReadingError as error:
+            self._warn(str(error))
+            self.scans[stamp] = None
+        self._try_answer(stamp)
+
+    def _try_answer(self, stamp: int) -> None:
+        """Answer the readings of ``stamp`` once both halves are in and an episode is on."""
+        if stamp not in self.ground or stamp not in self.scans:
+            self._trim()
+            return
+        if self.episode is None:
+            self._trim()
+            return  # kept until the announcement arrives
+        ground, scan = self.ground.pop(stamp), self.scans.pop(stamp)
+        self._forget_before(stamp)
+        if stamp <= self.answered_ns or not self.active:
+            return  # already answered, from before this episode, or not in it
+        self.answered_ns = stamp
+        if ground is None or scan is None:
+            self._publish(stamp, False, 0.0, 0.0)  # unusable readings: hold still
+            return
+        now = (stamp - self.episode['start_ns']) / 1e9
+        command = self.controller.step(ground, scan[0], scan[1], now)
+        linear, angular = wheels_to_twist(command.wheels, self.mona)
+        self._publish(stamp, bool(command.cleaner[0]), float(linear[0]), float(angular[0]))
+
+    def _publish(self, stamp: int, cleaner: bool, linear: float, angular: float) -> None:
+        self.cleaner_msg.data = cleaner
+        self.cleaner_pub.publish(self.cleaner_msg)
+        if not fill_twist(self.twist_msg, stamp, linear, angular):
+            self._warn(f'non-finite command ({linear}, {angular}) replaced by a stop')
+        self.cmd_pub.publish(self.twist_msg)
+
+    def _forget_before(self, stamp: int) -> None:
+        for pending in (self.ground, self.scans):
+            for old in [s for s in pending if s < stamp]:
+                del pending[old]
+
+    def _trim(self) -> None:
+        """Bound the readings waiting for their pair (a lost half must not pile up)."""
+        for pending in (self.ground, self.scans):
+            while len(pending) > PENDING_LIMIT:
+                del pending[min(pending)]
+
+    def _warn(self, text: str) -> None:
+        self.get_logger().warning(f'bad input: {text}', throttle_duration_sec=WARN_EVERY)
+
+
+def parse_robots(spec: str) -> list[int]:
+    """Robot ids from ``'3'``, ``'0-9'`` or ``'0,2,5-7'``."""
+    ids: list[int] = []
+    for part in spec.split(','):
+        first, _, last = part.strip().partition('-')
+        if not first.isdigit() or (last and not last.isdigit()):
+            raise ParameterError(f'--robots {spec!r}: expected ids like 3, 0-9 or 0,2,5-7')
+        ids.extend(range(int(first), int(last or first) + 1))
+    if not ids or len(set(ids)) != len(ids):
+        raise ParameterError(f'--robots {spec!r}: expected distinct robot ids')
+    return ids
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point ``mona_controller_node [--robots IDS] [--ros-args ...]``."""
+    rclpy.init(args=args)
+    argv = rclpy.utilities.remove_ros_args(args if args is not None else sys.argv)[1:]
+    parser = argparse.ArgumentParser(prog='mona_controller_node', description=__doc__.split(
+        '\n')[0])
+    parser.add_argument('--robots', help='robot ids hosted by this process as separate nodes '
+                        '(3, 0-9, 0,2,5-7); default: one robot from robot_id or the namespace')
+    options = parser.parse_args(argv)
+    logger = rclpy.logging.get_logger('mona_controller')
+    nodes: list[ControllerNode] = []
+    status = 0
+    try:
+        ids = parse_robots(options.robots) if options.robots else [None]
+        executor = SingleThreadedExecutor()
+        for robot_id in ids:
+            nodes.append(ControllerNode(robot_id))
+            executor.add_node(nodes[-1])
+        executor.spin_until_future_complete(all_finished([n.finished for n in nodes]))
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ParameterError as error:
+        logger.fatal(f'bad parameter: {error}')
+        status = 2
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
+
+
+def all_finished(futures: list[Future]) -> Future:
+    """A future done once every one of ``futures`` is."""
+    done = Future()
+    remaining = [len(futures)]
+
+    def one(_: Future) -> None:
+        remaining[0] -= 1
+        if remaining[0] == 0:
+            done.set_result(True)
+
+    for future in futures:
+        future.add_done_callback(one)
+    return done
+
+
+if __name__ == '__main__':
+    sys.exit(main())

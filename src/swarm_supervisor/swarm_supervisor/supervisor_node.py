@@ -1,0 +1,208 @@
+"""The supervisor node: places the robots and runs the episodes of a ros run.
+
+For episode k it derives ``seed_k = episode.seed + k``, places the robots from that seed
+(:mod:`swarm_supervisor.placement`, as the embedded runner does), announces the episode on
+``/episode`` and waits until the world reports it finished. After the last episode it
+announces the shutdown, which ends the world and every controller node.
+
+Usable from Python like nav2's simple commander::
+
+    supervisor = Supervisor()
+    supervisor.wait_for_world()
+    for k, seed in enumerate((1, 2, 3)):
+        supervisor.reset_episode(seed, episode=k)
+        status = supervisor.run_episode()
+    supervisor.shutdown_run()
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import rclpy
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from std_msgs.msg import String
+
+from mona_controller import qos
+from mona_controller.ros_params import declare_section
+from mona_controller.schema import ParameterError, param, validate
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.placement import PlacementError, place_robots, placement_rng
+
+RUN_FILE = 'run.json'
+
+
+class SupervisorError(RuntimeError):
+    """The run cannot go on: no world, a rejected or failed episode, a timeout."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SupervisorParams:
+    """Options of the supervisor node (the episode itself is the ``episode`` section)."""
+
+    episodes: int = param(1, unit='episodes', low=1, high=1_000_000,
+                          doc='episodes to run; episode k uses seed episode.seed + k')
+    output_dir: str = param('', doc="directory for run.json ('' = none)")
+    world_timeout: float = param(120.0, unit='s (wall)', low=0.1, high=86400.0,
+                                 doc='how long to wait for the world node to appear')
+    episode_timeout: float = param(3600.0, unit='s (wall)', low=0.1, high=1e7,
+                                   doc='how long one episode may take before the run fails')
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+class Supervisor(Node):
+    """Announces episodes to the world and the controllers and follows the world's status."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('supervisor', **kwargs)
+        self.config = declare_section(self, SwarmConfig)
+        self.options = declare_section(self, SupervisorParams)
+        if self.config.episode.population < 1:
+            raise ParameterError(f'episode.population = {self.config.episode.population} is out '
+                                 'of range for a ros run: allowed [1, 1000] robots (a world '
+                                 'without robots has nothing to step in lockstep)')
+        self.status: dict = {}
+        self.announcement: dict = {}
+        self.records: list[dict] = []
+        self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
+        self.create_subscription(String, qos.STATUS, self._on_status, qos.STATUS_QOS)
+
+    def _on_status(self, msg: String) -> None:
+        try:
+            self.status = json.loads(msg.data)
+        except ValueError:
+            self.get_logger().warning(f'unreadable /world/status: {msg.data[:200]}')
+
+    def _spin_until(self, condition, timeout: float, what: str) -> None:
+        """Spin this node until ``condition()`` holds; raise after ``timeout`` wall seconds."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                raise SupervisorError(f'timed out after {timeout:g} s waiting for {what}')
+            rclpy.spin_once(self, timeout_sec=0.1)
+
+    def wait_for_world(self, timeout: float | None = None) -> dict:
+        """Wait for the world node's status; return it."""
+        self._spin_until(lambda: bool(self.status), timeout or self.options.world_timeout,
+                         f'the world node (no {qos.STATUS})')
+        return self.status
+
+    def reset_episode(self, seed: int, episode: int | None = None) -> dict:
+        """Place the robots from ``seed`` and announce the episode; return the announcement.
+
+        Sim time carries on from the world's current time (``start_ns``), so it never runs
+        backwards across episodes.
+        """
+        if not self.status:
+            self.wait_for_world()
+        if episode is None:
+            episode = int(self.announcement.get('episode', -1)) + 1
+        config = self.config.replace(episode={'seed': seed})
+        try:
+            poses = place_robots(config.episode.population, config.world.arena_side,
+                                 config.mona.body_radius, placement_rng(seed))
+        except PlacementError as error:
+            raise ParameterError(str(error)) from None
+        self.announcement = {
+            'episode': episode, 'seed': seed, 'population': config.episode.population,
+            'duration': config.episode.duration, 'start_ns': int(self.status['time_ns']),
+            'poses': poses.tolist(), 'parameters': config.to_dict()}
+        self.episode_pub.publish(String(data=json.dumps(self.announcement)))
+        self.get_logger().info(f'episode {episode}: seed {seed}, {len(poses)} robots, start '
+                               f'{self.announcement["start_ns"]} ns')
+        return self.announcement
+
+    def run_episode(self, timeout: float | None = None) -> dict:
+        """Wait until the world finishes the announced episode; return its final status.
+
+        Raises:
+            SupervisorError: the world rejected or failed the episode, or it took too long.
+        """
+        episode = self.announcement['episode']
+
+        def over() -> bool:
+            return (self.status.get('episode') == episode
+                    and self.status.get('state') in ('finished', 'failed'))
+
+        self._spin_until(over, timeout or self.options.episode_timeout,
+                         f'episode {episode} to finish')
+        if self.status['state'] == 'failed':
+            raise SupervisorError(f'the world failed episode {episode}: '
+                                  f'{self.status.get("error")}')
+        final = dict(self.status)
+        self.records.append({key: self.announcement[key] for key in
+                             ('episode', 'seed', 'population', 'duration', 'start_ns')}
+                            | {'end_ns': final['time_ns'], 'steps': final['step'],
+                               'misses': sum(final['misses']), 'dropped': final['dropped']})
+        self.get_logger().info(f'episode {episode} finished: {final["step"]} steps, misses '
+                               f'{sum(final["misses"])}, dropped {final["dropped"]}')
+        return final
+
+    def shutdown_run(self) -> None:
+        """Announce the end of the run; every node exits."""
+        episode = int(self.announcement.get('episode', -1))
+        self.episode_pub.publish(String(data=json.dumps({'episode': episode,
+                                                         'shutdown': True})))
+        self.episode_pub.wait_for_all_acked(Duration(seconds=5))
+
+    def write_run(self) -> None:
+        """<output_dir>/run.json: the seeds and parameters of the episodes run so far."""
+        if not self.options.output_dir:
+            return
+        folder = Path(self.options.output_dir)
+        folder.mkdir(parents=True, exist_ok=True)
+        document = {'runner': 'ros', 'seed': self.config.episode.seed,
+                    'episodes': self.records, 'parameters': self.config.to_dict()}
+        partial = folder / (RUN_FILE + '.partial')
+        partial.write_text(json.dumps(document, indent=1) + '\n')
+        os.replace(partial, folder / RUN_FILE)
+
+    def run(self) -> None:
+        """Run ``episodes`` episodes from ``episode.seed`` on, then shut the run down."""
+        self.wait_for_world()
+        try:
+            for k in range(self.options.episodes):
+                self.reset_episode(self.config.episode.seed + k, episode=k)
+                self.run_episode()
+                self.write_run()
+        finally:
+            if self.context.ok():  # not after Ctrl-C
+                self.shutdown_run()
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point ``supervisor_node [--ros-args ...]``: 0 once every episode finished."""
+    rclpy.init(args=args)
+    node = None
+    status = 0
+    logger = rclpy.logging.get_logger('supervisor')
+    try:
+        node = Supervisor()
+        node.run()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        status = 130
+    except ParameterError as error:
+        logger.fatal(f'bad parameter: {error}')
+        status = 2
+    except SupervisorError as error:
+        logger.fatal(str(error))
+        status = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())

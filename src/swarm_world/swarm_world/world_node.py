@@ -1,0 +1,481 @@
+"""The world node: the simulated arena behind the per-robot topics of docs/interfaces.md.
+
+A thin adapter around :class:`~swarm_world.world.World`. It waits for an episode announcement
+on ``/episode``, resets the world at the announced poses, waits until every robot's controller
+is connected, then steps:
+
+- **lockstep**: publish every robot's readings stamped ``start_ns + k * step_ns``, wait for
+  each robot's ``cmd_vel`` with exactly that stamp (or ``lockstep_deadline`` wall seconds),
+  then step the physics. A robot that missed holds still for the step; after
+  ``absent_after`` consecutive misses it is marked absent and no longer waited for (a dead
+  controller costs one deadline, not one per step) until it answers again.
+- **realtime**: step every ``step_period`` of wall time with each robot's latest command.
+
+It publishes /clock, the ground-truth poses, the cleaning events, the cue map and grid, robot
+markers and /world/status, and with ``output_dir`` writes each episode's final state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import sys
+from collections.abc import Sequence
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseArray, TwistStamped
+from nav_msgs.msg import OccupancyGrid
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.task import Future
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import Image, LaserScan
+from std_msgs.msg import Bool, String
+from visualization_msgs.msg import MarkerArray
+
+from mona_controller import qos
+from mona_controller.messages import (PoseArrayFiller, cue_grid, cue_image, fill_readings,
+                                      ground_image, proximity_scan, robot_markers, set_stamp,
+                                      stamp_to_ns)
+from mona_controller.mona import MonaParams
+from mona_controller.ros_params import declare_section
+from mona_controller.schema import ParameterError, param, to_mapping, validate
+from swarm_world.params import WorldParams
+from swarm_world.world import World
+
+FINAL_FILE = 'world_final.npz'
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldNodeParams:
+    """Options of the world node (how it steps and publishes; not part of the model)."""
+
+    mode: str = param('lockstep', choices=('lockstep', 'realtime'),
+                      doc='lockstep: wait for every command; realtime: step on the wall clock')
+    lockstep_deadline: float = param(2.0, unit='s (wall)', low=0.001, high=3600.0,
+                                     doc='how long a lockstep round waits for the commands')
+    absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
+                              doc='consecutive misses after which a robot is absent and no '
+                                  'longer waited for (it rejoins when it answers)')
+    start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
+                                 doc='how long to wait for every controller to connect')
+    clock_period: float = param(0.1, unit='s (sim)', low=0.0, high=3600.0,
+                                doc='/clock publishing period (0: every step)')
+    map_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
+                              doc='cue map, grid and markers publishing period (0: every step)')
+    status_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
+                                 doc='/world/status period while running (0: every step)')
+    output_dir: str = param('', doc="directory for episode_<k>/world_final.npz ('' = none)")
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+class Ticker:
+    """Says when a sim-time period boundary is crossed (period 0: always)."""
+
+    def __init__(self, period_s: float) -> None:
+        self.period_ns = round(period_s * 1e9)
+
+    def crossed(self, before_ns: int, after_ns: int) -> bool:
+        return self.period_ns == 0 or after_ns // self.period_ns > before_ns // self.period_ns
+
+
+class RobotLink:
+    """The world's end of one robot's topics, with messages built once and reused."""
+
+    def __init__(self, node: Node, robot_id: int, mona: MonaParams, on_cleaner, on_cmd):
+        self.robot_id = robot_id
+        self.ground_msg = ground_image(robot_id)
+        self.scan_msg = proximity_scan(robot_id, mona)
+        self.ground_pub = node.create_publisher(Image, qos.robot_topic(robot_id, qos.GROUND),
+                                                qos.SENSOR_QOS)
+        self.scan_pub = node.create_publisher(LaserScan,
+                                              qos.robot_topic(robot_id, qos.PROXIMITY),
+                                              qos.SENSOR_QOS)
+        # cleaner before cmd_vel: when both are ready the executor takes them in this order.
+        self.cleaner_sub = node.create_subscription(
+            Bool, qos.robot_topic(robot_id, qos.CLEANER), partial(on_cleaner, robot_id),
+            qos.CLEANER_QOS)
+        self.cmd_sub = node.create_subscription(
+            TwistStamped, qos.robot_topic(robot_id, qos.CMD_VEL), partial(on_cmd, robot_id),
+            qos.COMMAND_QOS)
+
+    def connected(self) -> bool:
+        """A controller listens to both readings and publishes commands."""
+        return (self.ground_pub.get_subscription_count() > 0
+                and self.scan_pub.get_subscription_count() > 0
+                and self.cmd_sub.get_publisher_count() > 0)
+
+    def publish(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
+                stamp_ns: int) -> None:
+        fill_readings(self.ground_msg, self.scan_msg, ground, ranges, is_robot, stamp_ns)
+        self.ground_pub.publish(self.ground_msg)
+        self.scan_pub.publish(self.scan_msg)
+
+
+class WorldNode(Node):
+    """The simulated world of a Mona swarm, stepped in lockstep with its controllers."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('world', parameter_overrides=[Parameter('use_sim_time', value=False)],
+                         **kwargs)
+        self.params = declare_section(self, WorldParams, 'world.')
+        self.mona = declare_section(self, MonaParams, 'mona.')
+        self.options = declare_section(self, WorldNodeParams)
+        self.world = World(self.params, self.mona)
+        self.wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.finished = Future()  #: done on the shutdown announcement, or a fatal error
+        self.exit_status = 0
+
+        self.clock_pub = self.create_publisher(ClockMsg, qos.CLOCK, qos.CLOCK_QOS)
+        self.poses_pub = self.create_publisher(PoseArray, qos.POSES, qos.POSES_QOS)
+        self.cleaning_pub = self.create_publisher(PoseArray, qos.CLEANING, qos.CLEANING_QOS)
+        self.map_pub = self.create_publisher(Image, qos.CUE_MAP, qos.MAP_QOS)
+        self.grid_pub = self.create_publisher(OccupancyGrid, qos.CUE_GRID, qos.MAP_QOS)
+        self.markers_pub = self.create_publisher(MarkerArray, qos.MARKERS, qos.MARKERS_QOS)
+        self.status_pub = self.create_publisher(String, qos.STATUS, qos.STATUS_QOS)
+        self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
+        self.poses_filler = PoseArrayFiller()
+        self.cleaning_filler = PoseArrayFiller()
+        self.clock_msg = ClockMsg()
+        self.clock_tick = Ticker(self.options.clock_period)
+        self.map_tick = Ticker(self.options.map_period)
+        self.status_tick = Ticker(self.options.status_period)
+
+        self.links: list[RobotLink] = []
+        self.episode = -1
+        self.announcement: dict = {}
+        self.state = 'waiting'
+        self.error = ''
+        self.start_ns = 0  # absolute sim time of the episode's step 0
+        self.time_ns = 0  # absolute sim time now (monotonic across episodes)
+        self.total_steps = 0
+        self.expected_ns = -1  # the stamp the current lockstep round waits for
+        self._reset_counters(0)
+        self.connect_timer = None
+        self.step_timer = None  # lockstep: the deadline; realtime: the step period
+        self.publish_status()
+        self.get_logger().info(f'world ready ({self.options.mode}), waiting for an episode')
+
+    # --- episodes -----------------------------------------------------------------------
+
+    def on_episode(self, msg: String) -> None:
+        """Start the announced episode, or finish on the shutdown announcement."""
+        try:
+            announcement = json.loads(msg.data)
+            if announcement.get('shutdown'):
+                self.get_logger().info('shutdown announced')
+                self._stop_timers()
+                if not self.finished.done():
+                    self.finished.set_result(True)
+                return
+            episode = int(announcement['episode'])
+            population = int(announcement['population'])
+            poses = np.asarray(announcement['poses'], dtype=np.float64).reshape(-1, 3)
+            start_ns = int(announcement['start_ns'])
+            duration = float(announcement['duration'])
+            seed = int(announcement['seed'])
+        except (ValueError, KeyError, TypeError, AttributeError) as error:
+            self.get_logger().error(f'ignoring a malformed /episode announcement ({error!r}): '
+                                    f'{msg.data[:200]}')
+            return
+        key = (episode, seed, start_ns)
+        if self.announcement.get('key') == key:
+            return  # redelivered
+        problem = self._check_announcement(population, poses, start_ns, duration,
+                                           announcement.get('parameters') or {})
+        self._stop_timers()
+        self.announcement = {'key': key, 'seed': seed, 'duration': duration}
+        self.episode = episode
+        if problem:
+            self.fail(f'episode {episode} rejected: {problem}', fatal=False)
+            return
+        self.world.reset(poses)
+        self.start_ns = self.time_ns = start_ns
+        self.total_steps = math.ceil(round(duration * 1e9) / self.params.step_ns)
+        self._reset_counters(population)
+        while len(self.links) < population:
+            self.links.append(RobotLink(self, len(self.links), self.mona, self.on_cleaner,
+                                        self.on_cmd))
+        self.state = 'waiting'
+        self.error = ''
+        self.publish_status()
+        self.get_logger().info(f'episode {episode}: {population} robots, seed {seed}, '
+                               f'{self.total_steps} steps from {start_ns} ns; waiting for '
+                               'the controllers')
+        self.connect_started = self.wall.now()
+        self.connect_timer = self.create_timer(0.05, self._wait_for_controllers,
+                                               clock=self.wall)
+
+    def _check_announcement(self, population: int, poses: np.ndarray, start_ns: int,
+                            duration: float, parameters: dict) -> str:
+        if population < 1 or len(poses) != population:
+            return f'population {population} but {len(poses)} poses'
+        if not np.isfinite(poses).all():
+            return 'the poses are not all finite'
+        if not (duration > 0 and math.isfinite(duration)):
+            return f'duration {duration} s is not positive'
+        if start_ns < self.time_ns:
+            return (f'start_ns {start_ns} is before the world time {self.time_ns}: sim time '
+                    'must not run backwards')
+        for section, mine in (('world', self.params), ('mona', self.mona)):
+            theirs = parameters.get(section)
+            if theirs is not None and theirs != to_mapping(mine):
+                return (f'the announced {section} parameters {theirs} differ from the world '
+                        f'node\'s {to_mapping(mine)}: start every node with the same '
+                        '--params-file')
+        return ''
+
+    def _wait_for_controllers(self) -> None:
+        n = self.world.population
+        missing = [i for i in range(n) if not self.links[i].connected()]
+        if not missing:
+            self.destroy_timer(self.connect_timer)
+            self.connect_timer = None
+            self._begin()
+            return
+        waited = (self.wall.now() - self.connect_started).nanoseconds / 1e9
+        if waited > self.options.start_timeout:
+            self.destroy_timer(self.connect_timer)
+            self.connect_timer = None
+            shown = ', '.join(str(i) for i in missing[:20]) + (', ...' if len(missing) > 20
+                                                                else '')
+            self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s no '
+                      f'controller connected for {len(missing)} of {n} robots ({shown}); start '
+                      f'a mona_controller_node for each of /mona_0 .. /mona_{n - 1}')
+
+    def _begin(self) -> None:
+        self.state = 'running'
+        self.publish_clock()
+        self.publish_map()
+        self.publish_status()
+        self.get_logger().info(f'episode {self.episode} running')
+        if self.options.mode == 'lockstep':
+            self.step_timer = self.create_timer(self.options.lockstep_deadline, self.on_deadline,
+                                                clock=self.wall)
+            self._start_round()
+        else:
+            self._publish_readings()
+            self.step_timer = self.create_timer(self.params.step_period, self.on_realtime_tick,
+                                                clock=self.wall)
+
+    def _finish(self) -> None:
+        self._stop_timers()
+        self.state = 'finished'
+        self.expected_ns = -1
+        self.publish_map()
+        self.publish_status()
+        self._write_final()
+        self.get_logger().info(f'episode {self.episode} finished at {self.time_ns} ns; '
+                               f'misses {int(self.misses.sum())}, dropped {self.dropped}')
+
+    def fail(self, error: str, fatal: bool = True) -> None:
+        """Report an error on /world/status; a fatal one ends the node with status 1."""
+        self.get_logger().error(error)
+        self._stop_timers()
+        self.state = 'failed'
+        self.error = error
+        self.publish_status()
+        if fatal and not self.finished.done():
+            self.exit_status = 1
+            self.finished.set_result(False)
+
+    def _stop_timers(self) -> None:
+        for timer in (self.connect_timer, self.step_timer):
+            if timer is not None:
+                self.destroy_timer(timer)
+        self.connect_timer = self.step_timer = None
+
+    def _reset_counters(self, n: int) -> None:
+        self.linear = np.zeros(n)
+        self.angular = np.zeros(n)
+        self.cleaner = np.zeros(n, dtype=bool)  # the latest Bool from each robot
+        self.answered = np.zeros(n, dtype=bool)  # this round
+        self.command_ns = np.full(n, -1, dtype=np.int64)  # stamp of each latest command
+        self.misses = np.zeros(n, dtype=np.int64)
+        self.consecutive = np.zeros(n, dtype=np.int64)
+        self.absent = np.zeros(n, dtype=bool)
+        self.dropped = 0
+        self.duplicates = 0
+        self.pending = 0
+
+    # --- commands -----------------------------------------------------------------------
+
+    def on_cleaner(self, robot_id: int, msg: Bool) -> None:
+        if robot_id < len(self.cleaner):
+            self.cleaner[robot_id] = msg.data
+
+    def on_cmd(self, robot_id: int, msg: TwistStamped) -> None:
+        if self.state != 'running' or robot_id >= len(self.answered):
+            return
+        stamp = stamp_to_ns(msg.header.stamp)
+        linear, angular = msg.twist.linear.x, msg.twist.angular.z
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            linear = angular = 0.0  # a broken controller must not break the physics
+        if self.options.mode == 'realtime':
+            if stamp >= self.command_ns[robot_id]:
+                self.command_ns[robot_id] = stamp
+                self.linear[robot_id], self.angular[robot_id] = linear, angular
+            return
+        if self.absent[robot_id] and self.start_ns <= stamp <= self.expected_ns:
+            self.absent[robot_id] = False  # it answers again: wait for it from now on
+            self.consecutive[robot_id] = 0
+            self.get_logger().info(f'robot {robot_id} is back at step {self.world.steps}')
+            if stamp == self.expected_ns:
+                self.pending += 1  # counted as waited for, answered just below
+        if stamp != self.expected_ns:
+            self.dropped += 1
+            return
+        if self.answered[robot_id]:
+            self.duplicates += 1
+            return
+        self.answered[robot_id] = True
+        self.linear[robot_id], self.angular[robot_id] = linear, angular
+        self.consecutive[robot_id] = 0
+        self.pending -= 1
+        if self.pending == 0:
+            self._advance()
+
+    def on_deadline(self) -> None:
+        """The lockstep deadline passed: the robots that did not answer hold still."""
+        late = np.flatnonzero(~self.answered & ~self.absent)
+        self.misses[late] += 1
+        self.consecutive[late] += 1
+        gone = late[self.consecutive[late] >= self.options.absent_after]
+        if len(gone):
+            self.absent[gone] = True
+            self.get_logger().warning(
+                f'robots {gone.tolist()} missed {self.options.absent_after} steps in a row: '
+                'absent, no longer waited for until they answer again')
+        self._advance()
+
+    # --- stepping -----------------------------------------------------------------------
+
+    def _start_round(self) -> None:
+        """Lockstep: publish this step's readings and wait for every present robot."""
+        if self.world.steps >= self.total_steps:
+            self._finish()
+            return
+        self.answered[:] = False
+        self.linear[:] = 0.0
+        self.angular[:] = 0.0
+        self.expected_ns = self.time_ns
+        self.pending = int(np.count_nonzero(~self.absent))
+        self.step_timer.reset()
+        self._publish_readings()
+
+    def _advance(self) -> None:
+        """Apply the round's commands, step the world, publish, start the next round."""
+        cleaner = self.cleaner & ~self.absent  # an absent robot does not clean
+        self._step(cleaner)
+        self._start_round()
+
+    def on_realtime_tick(self) -> None:
+        """Realtime: step with each robot's latest command; stale ones hold still."""
+        stale = self.command_ns < self.time_ns - self.options.absent_after * self.params.step_ns
+        self.misses[self.command_ns < self.expected_ns] += 1
+        self.absent = stale
+        self.linear[stale] = 0.0
+        self.angular[stale] = 0.0
+        self._step(self.cleaner & ~stale)
+        if self.world.steps >= self.total_steps:
+            self._finish()
+            return
+        self._publish_readings()
+
+    def _step(self, cleaner: np.ndarray) -> None:
+        before = self.time_ns
+        self.world.step(self.linear, self.angular, cleaner)
+        self.time_ns = self.start_ns + self.world.time_ns
+        if len(self.world.cleaned):
+            self.cleaning_pub.publish(self.cleaning_filler.fill(
+                self.world.poses[self.world.cleaned], self.time_ns))
+        if self.clock_tick.crossed(before, self.time_ns):
+            self.publish_clock()
+        relative_before, relative = before - self.start_ns, self.world.time_ns
+        if self.map_tick.crossed(relative_before, relative):
+            self.publish_map()
+        if self.status_tick.crossed(relative_before, relative):
+            self.publish_status()
+
+    def _publish_readings(self) -> None:
+        readings = self.world.sense()
+        self.expected_ns = self.time_ns
+        self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+        for link, ground, ranges, is_robot in zip(self.links, readings.ground, readings.ranges,
+                                                  readings.is_robot):
+            link.publish(ground, ranges, is_robot, self.time_ns)
+
+    # --- world topics -------------------------------------------------------------------
+
+    def publish_clock(self) -> None:
+        set_stamp(self.clock_msg.clock, self.time_ns)
+        self.clock_pub.publish(self.clock_msg)
+
+    def publish_map(self) -> None:
+        self.map_pub.publish(cue_image(self.world.cue, self.time_ns))
+        self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
+        self.markers_pub.publish(robot_markers(self.world.poses, self.world.cleaning,
+                                               self.mona.body_radius, self.time_ns))
+        if self.state == 'finished':  # the last poses, which no readings round carries
+            self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+
+    def status(self) -> dict:
+        """The /world/status document."""
+        return {'episode': self.episode, 'state': self.state, 'step': self.world.steps,
+                'steps': self.total_steps, 'time_ns': self.time_ns, 'mode': self.options.mode,
+                'misses': self.misses.tolist(), 'absent': np.flatnonzero(self.absent).tolist(),
+                'dropped': self.dropped, 'duplicates': self.duplicates, 'error': self.error}
+
+    def publish_status(self) -> None:
+        self.status_pub.publish(String(data=json.dumps(self.status())))
+
+    def _write_final(self) -> None:
+        """<output_dir>/episode_<k>/world_final.npz: the final state, for parity checks."""
+        if not self.options.output_dir:
+            return
+        folder = Path(self.options.output_dir) / f'episode_{self.episode}'
+        folder.mkdir(parents=True, exist_ok=True)
+        partial_path = folder / (FINAL_FILE + '.partial.npz')
+        np.savez(partial_path, poses=self.world.poses.astype(np.float64),
+                 cue=self.world.cue.astype(np.float32), misses=self.misses,
+                 dropped=np.int64(self.dropped), duplicates=np.int64(self.duplicates),
+                 seed=np.int64(self.announcement['seed']), episode=np.int64(self.episode),
+                 steps=np.int64(self.world.steps), time_ns=np.int64(self.time_ns),
+                 start_ns=np.int64(self.start_ns),
+                 parameters=json.dumps({'world': to_mapping(self.params),
+                                        'mona': to_mapping(self.mona)}))
+        os.replace(partial_path, folder / FINAL_FILE)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point ``world_node [--ros-args ...]``; exits when the run is over."""
+    rclpy.init(args=args)
+    node = None
+    status = 0
+    try:
+        node = WorldNode()
+        rclpy.spin_until_future_complete(node, node.finished)
+        status = node.exit_status
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ParameterError as error:
+        rclpy.logging.get_logger('world').fatal(f'bad parameter: {error}')
+        status = 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())
