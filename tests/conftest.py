@@ -1,0 +1,47 @@
+"""Shared fixtures for tests that run ROS: a private domain and processes that never outlive
+the test (the machinery is in tests/harness.py).
+
+- ``ros_env``: a private ``ROS_DOMAIN_ID`` (locked, so parallel pytest runs and
+  scripts/swarm.sh never share one), the Fast DDS localhost profile, the venv on PATH. The
+  mapping is the environment for subprocesses; it is also applied to ``os.environ`` for the
+  test, so in-process ``rclpy.init()`` joins the same domain.
+- ``processes``: ``processes.spawn(cmd, name)`` starts a command in its own process group,
+  logging to ``tmp_path/<name>.log``; at teardown every group gets SIGINT, then SIGTERM, then
+  SIGKILL, and Fast DDS shared-memory files created meanwhile and used by no process are
+  removed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from harness import Processes, private_domain, remove_shm_leftovers, ros_environment, shm_files
+
+
+@pytest.fixture
+def ros_env(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, str]]:
+    """A private ROS domain: the environment for subprocesses, also set in os.environ."""
+    with private_domain() as domain:
+        env = ros_environment(domain)
+        for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY'):
+            monkeypatch.delenv(key, raising=False)
+        for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
+            monkeypatch.setenv(key, env[key])
+        yield env
+
+
+@pytest.fixture
+def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
+    """Start processes in the test's ROS domain; all are stopped and cleaned up afterwards."""
+    before = shm_files()
+    group = Processes(ros_env, tmp_path)
+    try:
+        yield group
+    finally:
+        group.stop_all()
+        time.sleep(0.2)
+        remove_shm_leftovers(before)

@@ -1,0 +1,147 @@
+"""Process harness for ROS tests and benchmarks: a private domain id, process groups that are
+always stopped, and removal of Fast DDS shared-memory leftovers. tests/conftest.py wraps these
+in fixtures; bench/bench_lockstep.py uses them directly.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+PROFILE = REPO / 'ros_ws' / 'config' / 'fastdds_localhost.xml'
+SHM = Path('/dev/shm')
+SHM_PREFIXES = ('fastrtps_', 'fast_datasharing', 'sem.fastrtps_')
+#: Domains 1..100 keep every Fast DDS port below Linux's ephemeral range (32768).
+DOMAINS = range(1, 101)
+LOCK_DIR = Path('/tmp')
+
+
+def domain_ports_free(domain: int) -> bool:
+    """True if no process holds the domain's multicast port or its first participant ports."""
+    base = 7400 + 250 * domain
+    for port in (base, base + 10, base + 12):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            try:
+                probe.bind(('0.0.0.0', port))
+            except OSError:
+                return False
+    return True
+
+
+@contextlib.contextmanager
+def private_domain() -> Iterator[int]:
+    """Hold a free ROS domain id for the duration of the block.
+
+    The lock file (/tmp/mona-ros-domain-<id>.lock, flock) is the one scripts/swarm.sh takes.
+    """
+    start = os.getpid() % len(DOMAINS)
+    for k in range(len(DOMAINS)):
+        domain = DOMAINS[(start + k) % len(DOMAINS)]
+        handle = open(LOCK_DIR / f'mona-ros-domain-{domain}.lock', 'w')
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        if not domain_ports_free(domain):
+            handle.close()
+            continue
+        try:
+            yield domain
+        finally:
+            handle.close()
+        return
+    raise RuntimeError('no free ROS domain id in 1..100')
+
+
+def shm_files() -> set[str]:
+    """The Fast DDS shared-memory files in /dev/shm now."""
+    return {p.name for p in SHM.glob('*') if p.name.startswith(SHM_PREFIXES)}
+
+
+def shm_in_use() -> set[str]:
+    """Names of /dev/shm files that some process maps or holds open."""
+    used = set()
+    for proc in Path('/proc').glob('[0-9]*'):
+        with contextlib.suppress(OSError):
+            used.update(line.rsplit('/dev/shm/', 1)[1].split()[0]
+                        for line in (proc / 'maps').read_text().splitlines()
+                        if '/dev/shm/' in line)
+        with contextlib.suppress(OSError):
+            for fd in (proc / 'fd').iterdir():
+                with contextlib.suppress(OSError):
+                    target = os.readlink(fd)
+                    if target.startswith('/dev/shm/'):
+                        used.add(target[len('/dev/shm/'):])
+    return used
+
+
+def remove_shm_leftovers(before: set[str]) -> list[str]:
+    """Remove Fast DDS files created since ``before`` that no live process uses."""
+    leftovers = sorted(shm_files() - before - shm_in_use())
+    for name in leftovers:
+        with contextlib.suppress(FileNotFoundError):
+            (SHM / name).unlink()
+    return leftovers
+
+
+def ros_environment(domain: int) -> dict[str, str]:
+    """The environment of a node process in ``domain`` (what scripts/swarm.sh sets too)."""
+    env = dict(os.environ)
+    env.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
+    env.pop('ROS_LOCALHOST_ONLY', None)
+    env.update(ROS_DOMAIN_ID=str(domain), RMW_IMPLEMENTATION='rmw_fastrtps_cpp',
+               FASTRTPS_DEFAULT_PROFILES_FILE=str(PROFILE), PYTHONUNBUFFERED='1',
+               PATH=f'{Path(sys.executable).parent}{os.pathsep}{env.get("PATH", "")}')
+    return env
+
+
+def stop_group(process: subprocess.Popen, grace: float = 10.0) -> int:
+    """Stop a process and its group: SIGINT, then SIGTERM, then SIGKILL; return its status."""
+    for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        if process.poll() is not None:
+            break
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.wait(wait)
+    # The leader may be gone while others in its group live on.
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGKILL)
+    return process.wait()
+
+
+class Processes:
+    """Processes started by one test, each in its own process group."""
+
+    def __init__(self, env: dict[str, str], log_dir: Path) -> None:
+        self.env = env
+        self.log_dir = log_dir
+        self.started: list[subprocess.Popen] = []
+
+    def spawn(self, command: list[str], name: str, **kwargs) -> subprocess.Popen:
+        """Start ``command`` with the test's ROS environment, output to ``<name>.log``."""
+        log = open(self.log_dir / f'{name}.log', 'wb')
+        kwargs.setdefault('env', self.env)
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True, **kwargs)
+        log.close()
+        process.name = name
+        self.started.append(process)
+        return process
+
+    def log(self, name: str) -> str:
+        """The output so far of the process started as ``name``."""
+        return (self.log_dir / f'{name}.log').read_text(errors='replace')
+
+    def stop_all(self) -> None:
+        for process in self.started:
+            stop_group(process)
