@@ -30,14 +30,11 @@ def split(config, steps: int) -> dict[str, float]:
     clock = time.perf_counter
     for _ in range(steps):
         t0 = clock()
-        physics = world.physics
-        ground = ground_readings(world.cue, world.params.cell_size, physics.poses,
-                                 world.mona.wheel_separation, physics.cos, physics.sin)
+        ground = ground_readings(world.cue, world.params.cell_size, world.poses,
+                                 world.mona.wheel_separation)
         t1 = clock()
-        near_wall, pairs = physics.candidates()
-        ranges, is_robot = proximity(physics.poses, world.mona.body_radius, world.bearings,
-                                     world.mona.ir_range, world.params.arena_side,
-                                     near_wall=near_wall, pairs=pairs)
+        ranges, is_robot = proximity(world.poses, world.mona.body_radius, world.bearings,
+                                     world.mona.ir_range, world.params.arena_side)
         t2 = clock()
         command = controllers.step(ground, ranges, is_robot, world.now)
         t3 = clock()
@@ -64,6 +61,7 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=1)
     args = parser.parse_args()
     base = load_config()
+    run_episode(base.replace(episode={'population': 2, 'duration': 1.0}))  # compile kernels
     print(f'embedded runner, {args.duration:g} s episodes, seed {args.seed}')
     factors = {}
     for population in args.populations:

@@ -45,22 +45,40 @@ def test_ir_out_of_range_is_inf():
     assert np.isinf(ranges).all()
 
 
-def test_physics_broadphase_finds_what_brute_force_finds():
-    """The world's pymunk sensor rings give the same readings as the all-pairs cast."""
-    from swarm_supervisor.config import SwarmConfig
-    from swarm_supervisor.runner import start_episode
-    from mona_controller.mona import wheels_to_twist
-    config = SwarmConfig().replace(episode={'population': 40, 'seed': 5})
-    world, controllers = start_episode(config)
-    for _ in range(600):
-        readings = world.sense()
-        brute = proximity(world.poses, 0.04, world.bearings, 0.03, 2.85)
-        np.testing.assert_array_equal(readings.ranges, brute[0])
-        np.testing.assert_array_equal(readings.is_robot, brute[1])
-        command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                   readings.now)
-        world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
-    assert controllers.encounters.sum() > 0  # the check covered robots seeing robots
+def marched_ranges(poses, bearings, radius=0.04, ir_range=0.03, side=2.85, step=1e-4):
+    """An independent oracle: walk along every beam in 0.1 mm steps until it hits something."""
+    ranges = np.full((len(poses), len(bearings)), np.inf)
+    is_robot = np.zeros(ranges.shape, dtype=bool)
+    for i, (x, y, heading) in enumerate(poses):
+        others = np.delete(poses[:, :2], i, axis=0)
+        for b, bearing in enumerate(bearings):
+            for t in np.arange(radius, radius + ir_range + step, step):
+                px, py = x + t * math.cos(heading + bearing), y + t * math.sin(heading + bearing)
+                if np.any(np.hypot(others[:, 0] - px, others[:, 1] - py) <= radius):
+                    ranges[i, b], is_robot[i, b] = t - radius, True
+                    break
+                if not (0 <= px <= side and 0 <= py <= side):
+                    ranges[i, b] = t - radius
+                    break
+    return ranges, is_robot
+
+
+def test_ir_agrees_with_a_marching_oracle_on_crowded_scenes():
+    from swarm_supervisor.placement import place_robots
+    rng = np.random.default_rng(0)
+    robots_seen = walls_seen = 0
+    for _ in range(5):
+        # A crowd in a small arena: robots near each other and near the walls, touching at most.
+        poses = place_robots(12, 0.5, 0.04, rng, gap=0.0)
+        ranges, is_robot = proximity(poses, 0.04, BEARINGS, 0.03, 0.5)
+        expected, expected_robot = marched_ranges(poses, BEARINGS, side=0.5)
+        seen = np.isfinite(expected)
+        assert np.array_equal(np.isfinite(ranges), seen)
+        np.testing.assert_allclose(ranges[seen], expected[seen], atol=2e-4)
+        assert np.array_equal(is_robot, expected_robot)
+        robots_seen += is_robot.sum()
+        walls_seen += (seen & ~is_robot).sum()
+    assert robots_seen > 5 and walls_seen > 5  # the scenes exercised both kinds of obstacle
 
 
 def test_world_cue_is_the_papers_disc():

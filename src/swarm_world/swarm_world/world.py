@@ -77,19 +77,15 @@ class World:
 
     def _physics(self, poses: np.ndarray) -> Physics:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
-                       self.params.collision_slop,
-                       ring_radius=self.mona.body_radius + self.mona.ir_range)
+                       self.params.collision_slop)
 
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
-        physics = self.physics
-        poses = physics.poses
+        poses = self.poses
         ground = ground_readings(self.cue, self.params.cell_size, poses,
-                                 self.mona.wheel_separation, physics.cos, physics.sin)
-        near_wall, pairs = physics.candidates()
+                                 self.mona.wheel_separation)
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
-                                     self.mona.ir_range, self.params.arena_side,
-                                     near_wall=near_wall, pairs=pairs)
+                                     self.mona.ir_range, self.params.arena_side)
         return Readings(self.time_ns, ground, ranges, is_robot)
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
