@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import struct
 import zlib
+from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 
@@ -117,12 +118,12 @@ class EpisodeBagWriter:
         """One ``custom_data`` entry (written to metadata.yaml and the MCAP at close)."""
         self._writer.set_custom_data(CUSTOM_PREFIX + key, value)
 
-    def add_topic(self, topic: str, msgtype: str, qos: Qos | None = None) -> None:
+    def add_topic(self, topic: str, msgtype: str, qos: Sequence[Qos] = ()) -> None:
         """Register a topic (a no-op if it is known). ``msgtype`` like 'std_msgs/msg/String'."""
         if topic not in self._connections:
             self._connections[topic] = self._writer.add_connection(
                 topic, msgtype, typestore=TYPESTORE,
-                offered_qos_profiles=[qos] if qos is not None else [])
+                offered_qos_profiles=list(qos))
 
     def has_topic(self, topic: str) -> bool:
         """True once :meth:`add_topic` registered ``topic``."""

@@ -1,0 +1,293 @@
+"""Recomputing an episode's metrics from its bag, and the replica the metrics node runs online.
+
+The cue is rebuilt from the initial disc (:func:`swarm_world.cue.disc_cue` with the episode's
+parameters) by replaying the ``/world/cleaning`` events through :func:`swarm_world.cue.clean`,
+the function the world itself cleans with, and sampled like the embedded runner samples: a
+row is taken at the first world state at or after each ``sample_period`` boundary, labelled
+with the boundary. The metrics node drives the same :class:`MetricsReplica` with live messages,
+so its online metrics and this offline recomputation agree by construction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from mona_controller.mona import MonaParams
+from mona_controller.schema import from_mapping
+from swarm_metrics.bag_reader import BagError, EpisodeBag
+from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
+from swarm_world import cue as cue_field
+from swarm_world.params import WorldParams
+from swarm_world.sensors import ground_readings
+
+#: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
+METRIC_NAMES = COLUMNS[1:]
+
+
+class AnnouncementError(ValueError):
+    """An /episode announcement that lacks a field or carries a bad parameter."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSetup:
+    """What an episode announcement fixes: seed, start, initial poses and the parameters."""
+
+    episode: int
+    seed: int
+    population: int
+    duration: float  #: s
+    start_ns: int  #: sim time of the episode's t = 0
+    initial_poses: np.ndarray  #: [N, 3]
+    world: WorldParams
+    mona: MonaParams
+    metrics: MetricsParams
+    parameters: dict  #: every section, as announced
+
+    @classmethod
+    def from_announcement(cls, announcement: dict) -> EpisodeSetup:
+        """Parse and validate the supervisor's /episode message (docs/interfaces.md).
+
+        Raises:
+            AnnouncementError: naming the missing field or the bad parameter.
+        """
+        try:
+            parameters = announcement['parameters']
+            if not isinstance(parameters, dict):
+                raise AnnouncementError("'parameters' is not a mapping")
+            poses = np.asarray(announcement['poses'], dtype=np.float64).reshape(-1, 3)
+            setup = cls(
+                episode=int(announcement['episode']), seed=int(announcement['seed']),
+                population=int(announcement['population']),
+                duration=float(announcement['duration']),
+                start_ns=int(announcement['start_ns']), initial_poses=poses,
+                world=from_mapping(WorldParams, parameters.get('world'), 'world.'),
+                mona=from_mapping(MonaParams, parameters.get('mona'), 'mona.'),
+                metrics=from_mapping(MetricsParams, parameters.get('metrics'), 'metrics.'),
+                parameters=parameters)
+        except KeyError as error:
+            raise AnnouncementError(f'the episode announcement has no {error.args[0]!r}') \
+                from None
+        except (TypeError, ValueError, OverflowError) as error:  # ParameterError included
+            raise AnnouncementError(f'bad episode announcement: {error}') from None
+        if len(poses) != setup.population or not np.isfinite(poses).all():
+            raise AnnouncementError(f'the announcement places {len(poses)} robots (finite '
+                                    f'poses expected) for population {setup.population}')
+        if not math.isfinite(setup.duration) or setup.duration <= 0 or setup.start_ns < 0:
+            raise AnnouncementError('the announcement needs duration > 0 and start_ns >= 0')
+        return setup
+
+    @property
+    def sample_ns(self) -> int:
+        """The metrics sample period in ns."""
+        return round(self.metrics.sample_period * 1e9)
+
+    @property
+    def end_ns(self) -> int:
+        """Sim time at which the episode ends."""
+        return self.start_ns + round(self.duration * 1e9)
+
+
+def clean_tick(cue: np.ndarray, poses: np.ndarray, world: WorldParams, mona: MonaParams,
+               kernel: np.ndarray) -> None:
+    """Eq. 3 under the robots that cleaned at one tick (poses [M, 3], robot order), in place.
+
+    What ``World._clean`` does with the world's own poses, here with the poses of a
+    /world/cleaning message.
+    """
+    if not len(poses):
+        return
+    cells = cue_field.cell_index(poses[:, :2], world.cell_size, world.cells)
+    levels = None
+    if world.cleaning == 'literal':
+        ground = ground_readings(cue, world.cell_size, poses, mona.wheel_separation)
+        levels = ground.astype(np.float64).mean(axis=1)
+    cue_field.clean(cue, cells, kernel, literal_levels=levels)
+
+
+class MetricsReplica:
+    """The cue and the metrics of one episode, rebuilt from what the world publishes.
+
+    Feed it the cleaning events and the poses in the order they arrive. A sample is due at the
+    first pose at or after each sample boundary; it is taken once a later pose arrives (or at
+    :meth:`finish`), after applying every cleaning event stamped up to the sampled pose, so
+    the order in which the two topics arrive does not matter.
+    """
+
+    def __init__(self, setup: EpisodeSetup) -> None:
+        self.setup = setup
+        self.cue = cue_field.disc_cue(setup.world)
+        self.initial_mean = float(self.cue.mean(dtype=np.float64))
+        self.kernel = cue_field.cleaning_kernel(setup.world.cleaning_radius,
+                                                setup.world.cleaning_peak)
+        self.late_events = 0  #: cleaning events that arrived after their time was sampled
+        self.poses: np.ndarray = setup.initial_poses.copy()  #: the latest poses
+        self._events: list[tuple[int, np.ndarray]] = []
+        self._pending: tuple[int, int, np.ndarray] | None = None  # (time ns, k, poses)
+        self._last_pose_ns = setup.start_ns
+        self._sampled_ns = setup.start_ns
+
+    def initial(self) -> tuple[int, dict[str, float]]:
+        """The t = 0 row (initial cue, announced poses) and its log time."""
+        return self.setup.start_ns, self._row(0, self.setup.initial_poses)
+
+    def cleaning(self, time_ns: int, poses: np.ndarray) -> None:
+        """A /world/cleaning event: the robots (poses [M, 3]) that cleaned at ``time_ns``."""
+        if time_ns <= self._sampled_ns:
+            self.late_events += 1
+        self._events.append((time_ns, poses))
+
+    def due(self, time_ns: int) -> bool:
+        """True if a pose stamped ``time_ns`` is the first at or after a sample boundary."""
+        start, period = self.setup.start_ns, self.setup.sample_ns
+        return (time_ns - start) // period > (self._last_pose_ns - start) // period
+
+    def pose(self, time_ns: int,
+             poses: np.ndarray | None) -> tuple[list[tuple[int, dict]], bool]:
+        """A /world/poses message. Returns (rows now complete, whether this pose is sampled).
+
+        ``poses`` [N, 3] may be None for a pose that is not :meth:`due` (saves decoding it).
+        """
+        rows = self.advance(time_ns - 1)
+        due = self.due(time_ns)
+        self._last_pose_ns = max(self._last_pose_ns, time_ns)
+        if poses is not None:
+            self.poses = poses
+        if due:
+            if poses is None:
+                raise ValueError('a sampled pose needs its poses')
+            k = (time_ns - self.setup.start_ns) // self.setup.sample_ns
+            self._pending = (time_ns, k, poses)
+        return rows, due
+
+    def advance(self, time_ns: int) -> list[tuple[int, dict]]:
+        """Take the pending sample if it is stamped at or before ``time_ns``."""
+        if self._pending is None or self._pending[0] > time_ns:
+            return []
+        stamp, k, poses = self._pending
+        self._pending = None
+        self.cue_at(stamp)
+        self._sampled_ns = stamp
+        return [(self.setup.start_ns + k * self.setup.sample_ns, self._row(k, poses))]
+
+    def finish(self) -> list[tuple[int, dict]]:
+        """Take the pending sample (the world has finished or gone)."""
+        return self.advance(2**63 - 1)
+
+    def cue_at(self, time_ns: int) -> np.ndarray:
+        """The cue after every cleaning event stamped up to ``time_ns`` (applied in order)."""
+        due = [event for event in self._events if event[0] <= time_ns]
+        if due:
+            self._events = [event for event in self._events if event[0] > time_ns]
+            for _, poses in sorted(due, key=lambda event: event[0]):
+                clean_tick(self.cue, poses, self.setup.world, self.setup.mona, self.kernel)
+        return self.cue
+
+    def _row(self, k: int, poses: np.ndarray) -> dict[str, float]:
+        return sample(k * self.setup.metrics.sample_period, self.cue, self.initial_mean,
+                      poses[:, :2], self.setup.world.centre, self.setup.metrics)
+
+
+@dataclasses.dataclass
+class Recomputation:
+    """The metrics of one episode recomputed from its bag, and how they compare."""
+
+    setup: EpisodeSetup
+    rows: list[dict[str, float]]  #: metrics.csv rows
+    final_cue: np.ndarray
+    final_poses: np.ndarray
+    online_rows: int  #: samples the metrics node recorded
+    online_max_diff: float | None  #: max |online - offline| over matched samples (None: none)
+    cue_maps_checked: int  #: recorded /world/cue_map images compared with the rebuilt cue
+    cue_map_max_diff: int  #: max |map - rint(rebuilt cue)| over them (cue units)
+    last_status: dict | None  #: the world's final /world/status
+
+    @property
+    def covered(self) -> float:
+        """Sim seconds covered by the samples (the last row's t)."""
+        return self.rows[-1]['t'] if self.rows else 0.0
+
+    @property
+    def complete(self) -> bool:
+        """True when the samples reach the episode's duration."""
+        return self.covered + self.setup.metrics.sample_period > self.setup.duration
+
+
+def episode_setup(bag: EpisodeBag) -> EpisodeSetup:
+    """The setup announced in a bag.
+
+    Raises:
+        BagError: the bag has no usable /episode announcement.
+    """
+    if bag.announcement is None:
+        raise BagError(f'{bag.path} holds no /episode announcement, so the episode\'s seed, '
+                       f'initial poses and parameters are unknown (custom_data: '
+                       f'{sorted(bag.custom) or "none"}); it holds {bag.report.readable()}')
+    try:
+        return EpisodeSetup.from_announcement(bag.announcement)
+    except AnnouncementError as error:
+        raise BagError(f'{bag.path}: {error}') from None
+
+
+def recompute(bag: EpisodeBag) -> Recomputation:
+    """Every metric of the episode from its bag (see the module docstring).
+
+    Raises:
+        BagError: no usable announcement, or poses that do not match the population.
+    """
+    setup = episode_setup(bag)
+    replica = MetricsReplica(setup)
+    # Log-time order; at equal times cleaning first, then poses, then maps: the world cleans
+    # within the step whose poses it then publishes.
+    events: list[tuple[int, int, Any]] = [(t, 0, p) for t, p in bag.cleaning]
+    events += [(t, 1, p) for t, p in bag.poses if t > setup.start_ns]
+    events += [(t, 2, m) for t, m in bag.cue_maps if t >= setup.start_ns]
+    events.sort(key=lambda event: (event[0], event[1]))
+    timed = [replica.initial()]
+    checked, worst = 0, 0
+    for time_ns, kind, payload in events:
+        if kind == 0:
+            replica.cleaning(time_ns, payload)
+        elif kind == 1:
+            if len(payload) != setup.population:
+                raise BagError(f'{bag.path}: /world/poses at {time_ns / 1e9:.3f} s has '
+                               f'{len(payload)} robots, the episode {setup.population}')
+            timed += replica.pose(time_ns, payload)[0]
+        else:
+            timed += replica.advance(time_ns)
+            cue = replica.cue_at(time_ns)
+            if payload.shape == cue.shape:
+                difference = np.abs(payload.astype(np.int16)
+                                    - np.rint(cue).astype(np.int16)).max()
+                checked, worst = checked + 1, max(worst, int(difference))
+            else:
+                raise BagError(f'{bag.path}: /world/cue_map is {payload.shape}, the '
+                               f'parameters give {cue.shape}')
+    timed += replica.finish()
+    online, diff = _compare_online(bag, timed)
+    return Recomputation(setup, [row for _, row in timed], replica.cue_at(2**63 - 1).copy(),
+                         replica.poses.copy(), online, diff, checked, worst,
+                         bag.status[-1][1] if bag.status else None)
+
+
+def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]) -> tuple[int, float | None]:
+    """(online samples, max |online - offline|) over the samples both have."""
+    offline = {t: row for t, row in timed}
+    worst, matched = None, 0
+    for name in METRIC_NAMES:
+        for t, value in bag.metrics.get(name, []):
+            if t in offline:
+                mine = offline[t][name]
+                if math.isnan(value) and math.isnan(mine):
+                    difference = 0.0
+                else:
+                    difference = abs(value - mine)
+                    difference = math.inf if math.isnan(difference) else difference
+                worst = difference if worst is None else max(worst, difference)
+                matched += 1
+    online = max((len(bag.metrics.get(name, [])) for name in METRIC_NAMES), default=0)
+    return online, (worst if matched else None)
+

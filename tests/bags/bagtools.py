@@ -1,0 +1,148 @@
+"""Test helpers: episode bags made from the embedded engine, serialized as the world node does.
+
+``python bagtools.py BAG SECONDS`` writes an endless synthetic stream into BAG and prints each
+log time it wrote (flushed), for the SIGKILL test.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mona_controller.mona import wheels_to_twist
+from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter, offered_qos
+from swarm_metrics.metrics import sample
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.runner import start_episode
+
+TYPES = TYPESTORE.types
+STRING, FLOAT64 = 'std_msgs/msg/String', 'std_msgs/msg/Float64'
+POSE_ARRAY, IMAGE = 'geometry_msgs/msg/PoseArray', 'sensor_msgs/msg/Image'
+METRICS = ('mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
+TOPICS = {'/episode': (STRING, offered_qos(1, latched=True)),
+          '/world/status': (STRING, offered_qos(1, latched=True)),
+          '/world/poses': (POSE_ARRAY, offered_qos(10)),
+          '/world/cleaning': (POSE_ARRAY, offered_qos(100)),
+          '/world/cue_map': (IMAGE, offered_qos(1, latched=True)),
+          **{f'/metrics/{name}': (FLOAT64, offered_qos(10)) for name in METRICS}}
+
+
+def header(ns: int, frame: str = 'world'):
+    return TYPES['std_msgs/msg/Header'](
+        stamp=TYPES['builtin_interfaces/msg/Time'](sec=ns // 10**9, nanosec=ns % 10**9),
+        frame_id=frame)
+
+
+def string_cdr(text: str) -> bytes:
+    return bytes(TYPESTORE.serialize_cdr(TYPES[STRING](data=text), STRING))
+
+
+def float_cdr(value: float) -> bytes:
+    return bytes(TYPESTORE.serialize_cdr(TYPES[FLOAT64](data=float(value)), FLOAT64))
+
+
+def pose_array_cdr(poses: np.ndarray, ns: int) -> bytes:
+    """[N, 3] poses as the world node sends them (yaw as a z-axis quaternion)."""
+    pose, point, quaternion = (TYPES[f'geometry_msgs/msg/{name}']
+                               for name in ('Pose', 'Point', 'Quaternion'))
+    msg = TYPES[POSE_ARRAY](header=header(ns), poses=[
+        pose(position=point(x=float(x), y=float(y), z=0.0),
+             orientation=quaternion(x=0.0, y=0.0, z=math.sin(a / 2), w=math.cos(a / 2)))
+        for x, y, a in np.asarray(poses).tolist()])
+    return bytes(TYPESTORE.serialize_cdr(msg, POSE_ARRAY))
+
+
+def image_cdr(cue: np.ndarray, ns: int) -> bytes:
+    """The cue as /world/cue_map (mono8, row 0 at the top)."""
+    rows, cols = cue.shape
+    data = np.clip(np.rint(cue), 0, 255).astype(np.uint8)[::-1].ravel()
+    msg = TYPES[IMAGE](header=header(ns), height=rows, width=cols, encoding='mono8',
+                       is_bigendian=0, step=cols, data=data)
+    return bytes(TYPESTORE.serialize_cdr(msg, IMAGE))
+
+
+def announcement(config: SwarmConfig, poses: np.ndarray, start_ns: int,
+                 episode: int = 0) -> dict:
+    """The supervisor's /episode message for ``config``."""
+    return {'episode': episode, 'seed': config.episode.seed,
+            'population': config.episode.population, 'duration': config.episode.duration,
+            'start_ns': start_ns, 'poses': np.asarray(poses).tolist(),
+            'parameters': config.to_dict()}
+
+
+def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 * 10**9,
+                         all_poses: bool = False, map_period: float = 2.0,
+                         chunk_period: float = 5.0) -> list[dict]:
+    """Run one embedded episode and record it as the metrics node would; return its rows.
+
+    The rows are the embedded runner's samples, also recorded on /metrics/* ('online').
+    """
+    world, controllers = start_episode(config)
+    sample_ns = round(config.metrics.sample_period * 1e9)
+    map_ns = round(map_period * 1e9)
+    centre = config.world.centre
+    rows = [sample(0.0, world.cue, world.initial_mean_cue, world.poses[:, :2], centre,
+                   config.metrics)]
+    with EpisodeBagWriter(path, chunk_period=chunk_period) as bag:
+        for topic, (msgtype, qos) in TOPICS.items():
+            bag.add_topic(topic, msgtype, [qos])
+        announced = announcement(config, world.poses, start_ns)
+        bag.describe(announced)
+        bag.write('/episode', start_ns, string_cdr(json.dumps(announced)))
+        bag.write('/world/cue_map', start_ns, image_cdr(world.cue, start_ns))
+        for name in METRICS:
+            bag.write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
+        for _ in range(config.steps()):
+            readings = world.sense()
+            command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
+                                       readings.now)
+            before = world.time_ns
+            world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
+            now = start_ns + world.time_ns
+            if len(world.cleaned):
+                bag.write('/world/cleaning', now,
+                          pose_array_cdr(world.poses[world.cleaned], now))
+            crossed = world.time_ns // sample_ns > before // sample_ns
+            if crossed or all_poses:
+                bag.write('/world/poses', now, pose_array_cdr(world.poses, now))
+            if crossed:
+                k = world.time_ns // sample_ns
+                rows.append(sample(k * config.metrics.sample_period, world.cue,
+                                   world.initial_mean_cue, world.poses[:, :2], centre,
+                                   config.metrics))
+                for name in METRICS:
+                    bag.write(f'/metrics/{name}', start_ns + k * sample_ns,
+                              float_cdr(rows[-1][name]))
+                bag.write('/world/status', now, string_cdr(json.dumps(
+                    {'episode': 0, 'state': 'running', 'time_ns': now})))
+            if world.time_ns // map_ns > before // map_ns:
+                bag.write('/world/cue_map', now, image_cdr(world.cue, now))
+    return rows
+
+
+def endless_stream(path: Path, chunk_period: float) -> None:
+    """Write 10 Hz poses + metrics forever, printing each log time once written."""
+    config = SwarmConfig().replace(episode={'population': 3})
+    poses = np.array([[0.5, 0.5, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]])
+    with EpisodeBagWriter(path, chunk_period=chunk_period) as bag:
+        for topic, (msgtype, qos) in TOPICS.items():
+            bag.add_topic(topic, msgtype, [qos])
+        announced = announcement(config, poses, 0)
+        bag.describe(announced)
+        bag.write('/episode', 0, string_cdr(json.dumps(announced)))
+        bag.flush()
+        k = 0
+        while True:
+            k += 1
+            ns = k * 100_000_000
+            bag.write('/world/poses', ns, pose_array_cdr(poses + k * 1e-4, ns))
+            bag.write('/metrics/mean_cue', ns, float_cdr(k))
+            print(ns, flush=True)
+
+
+if __name__ == '__main__':
+    endless_stream(Path(sys.argv[1]), float(sys.argv[2]))
