@@ -173,6 +173,11 @@ class MetricsReplica:
         self._sampled_ns = stamp
         return [(self.setup.start_ns + k * self.setup.sample_ns, self._row(k, poses))]
 
+    @property
+    def pending_poses(self) -> np.ndarray:
+        """The poses of the sample :meth:`advance` would take next (else the latest poses)."""
+        return self.poses if self._pending is None else self._pending[2]
+
     def finish(self) -> list[tuple[int, dict]]:
         """Take the pending sample (the world has finished or gone)."""
         return self.advance(2**63 - 1)
@@ -204,6 +209,7 @@ class Recomputation:
     cue_maps_checked: int  #: recorded /world/cue_map images compared with the rebuilt cue
     cue_map_max_diff: int  #: max |map - rint(rebuilt cue)| over them (cue units)
     last_status: dict | None  #: the world's final /world/status
+    snapshots: dict[float, tuple[np.ndarray, np.ndarray]]  #: t -> (cue, poses)
 
     @property
     def covered(self) -> float:
@@ -232,8 +238,12 @@ def episode_setup(bag: EpisodeBag) -> EpisodeSetup:
         raise BagError(f'{bag.path}: {error}') from None
 
 
-def recompute(bag: EpisodeBag) -> Recomputation:
+def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomputation:
     """Every metric of the episode from its bag (see the module docstring).
+
+    Args:
+        snapshot_times: sim times (s) at which to keep the rebuilt cue and the poses, each at
+            the first sample at or after it (as the embedded runner keeps them).
 
     Raises:
         BagError: no usable announcement, or poses that do not match the population.
@@ -246,7 +256,17 @@ def recompute(bag: EpisodeBag) -> Recomputation:
     events += [(t, 1, p) for t, p in bag.poses if t > setup.start_ns]
     events += [(t, 2, m) for t, m in bag.cue_maps if t >= setup.start_ns]
     events.sort(key=lambda event: (event[0], event[1]))
-    timed = [replica.initial()]
+    pending = sorted(snapshot_times)
+    snapshots: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    timed: list[tuple[int, dict]] = []
+
+    def keep(rows: list[tuple[int, dict]], poses: np.ndarray) -> None:
+        for row in rows:
+            timed.append(row)
+            while pending and pending[0] <= row[1]['t'] + 1e-9:
+                snapshots[pending.pop(0)] = (replica.cue.copy(), poses.copy())
+
+    keep([replica.initial()], setup.initial_poses)
     checked, worst = 0, 0
     for time_ns, kind, payload in events:
         if kind == 0:
@@ -255,9 +275,10 @@ def recompute(bag: EpisodeBag) -> Recomputation:
             if len(payload) != setup.population:
                 raise BagError(f'{bag.path}: /world/poses at {time_ns / 1e9:.3f} s has '
                                f'{len(payload)} robots, the episode {setup.population}')
-            timed += replica.pose(time_ns, payload)[0]
+            before = replica.pending_poses
+            keep(replica.pose(time_ns, payload)[0], before)
         else:
-            timed += replica.advance(time_ns)
+            keep(replica.advance(time_ns), replica.pending_poses)
             cue = replica.cue_at(time_ns)
             if payload.shape == cue.shape:
                 difference = np.abs(payload.astype(np.int16)
@@ -266,11 +287,11 @@ def recompute(bag: EpisodeBag) -> Recomputation:
             else:
                 raise BagError(f'{bag.path}: /world/cue_map is {payload.shape}, the '
                                f'parameters give {cue.shape}')
-    timed += replica.finish()
+    keep(replica.finish(), replica.pending_poses)
     online, diff = _compare_online(bag, timed)
     return Recomputation(setup, [row for _, row in timed], replica.cue_at(2**63 - 1).copy(),
                          replica.poses.copy(), online, diff, checked, worst,
-                         bag.status[-1][1] if bag.status else None)
+                         bag.status[-1][1] if bag.status else None, snapshots)
 
 
 def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]) -> tuple[int, float | None]:
