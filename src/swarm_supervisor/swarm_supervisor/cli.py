@@ -17,6 +17,7 @@ from swarm_supervisor.placement import PlacementError
 #: Modules that contribute subcommands, in the order ``--help`` lists them.
 COMMAND_MODULES = (
     'swarm_supervisor.run_command',
+    'swarm_supervisor.study_command',
     'swarm_supervisor.bag_commands',
 )
 

@@ -1,0 +1,410 @@
+"""From episode folders to the study's results: figures, ANOVA tables and report.md.
+
+:func:`analyse` is the one path from episodes to results, whichever runner produced them
+(the embedded study, or ``mona-swarm analyze`` on ROS bags): it reads each folder's
+metrics.csv and episode.json, writes ``all_metrics.csv``, figures 3-6, ``anova_cue.csv`` and
+``anova_coherency.csv``, and a ``report.md`` whose reading of the results is computed from
+the data.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import platform
+import subprocess
+import time
+from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from swarm_metrics import anova as anova_tables
+from swarm_metrics import figures
+from swarm_supervisor import __version__, outputs, study
+
+REPORT_FILE = 'report.md'
+ANOVA_FILES = {'mean_cue': 'anova_cue.csv', 'coherency': 'anova_coherency.csv'}
+ALPHA = 0.05  #: significance level for the reading of the ANOVA tables
+SETTLE_SHARE = 0.1  #: settling compares the last tenth of the episode with the one before
+SETTLE_TOLERANCE = 0.05  #: settled: that change is within 5 % of the curve's range
+DEPENDENCIES = ('numpy', 'pymunk', 'pandas', 'statsmodels', 'matplotlib')
+
+
+@dataclasses.dataclass
+class Figure:
+    """One figure of the report: its file (None when skipped) and a note."""
+
+    title: str
+    file: str | None
+    note: str = ''
+
+
+def _records(folders: Sequence[Path]) -> list[dict[str, Any]]:
+    return [json.loads((folder / outputs.EPISODE_FILE).read_text()) for folder in folders]
+
+
+def analyse(out_dir: str | Path, folders: Sequence[Path], *,
+            table: pd.DataFrame | None = None, sources: Sequence[str] = (),
+            parameters_file: str | None = None) -> Path:
+    """Write every result of a study of the episodes in ``folders`` into ``out_dir``.
+
+    Args:
+        table: the tidy table of ``folders`` if already built (else read from them).
+        sources: where the episodes came from, for the report (default: ``out_dir``).
+        parameters_file: the parameter file saved in ``out_dir`` that produced them, if any.
+
+    Returns:
+        The path of report.md.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    folders = [Path(folder) for folder in folders]
+    if table is None:
+        table = study.tidy_table(folders)
+        study.write_table(table, out / study.TABLE_FILE)
+    records = _records(folders)
+    drawn = make_figures(out, table, folders, records)
+    tables = {}
+    for response, name in ANOVA_FILES.items():
+        tables[response] = anova_tables.anova(table, response)
+        anova_tables.write_anova(tables[response], out / name)
+    path = out / REPORT_FILE
+    path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
+                           parameters_file=parameters_file))
+    return path
+
+
+def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
+                 records: Sequence[dict[str, Any]]) -> list[Figure]:
+    """Figures 3-6 into ``out``; fig. 3 is skipped (with a note) when no episode kept maps."""
+    initial = table['mean_cue'] / table['mean_cue_fraction']
+    initial_mean = float(np.nanmedian(initial)) if initial.notna().any() else 0.0
+    radius = records[0].get('parameters', {}).get('metrics', {}).get('source_radius', 0.7)
+    drawn = [fig3(out, folders, records)]
+    drawn.append(Figure('Fig. 4: mean cue vs time', figures.FIG4,
+                        figures.fig4_mean_cue(table, out / figures.FIG4,
+                                              initial_mean=initial_mean)))
+    drawn.append(Figure('Fig. 5: ratio of robots near the source', figures.FIG5,
+                        figures.fig5_ratio_near_source(table, out / figures.FIG5,
+                                                       source_radius=radius)))
+    drawn.append(Figure('Fig. 6: coherency', figures.FIG6,
+                        figures.fig6_coherency(table, out / figures.FIG6)))
+    return drawn
+
+
+def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) -> Figure:
+    """Fig. 3 from the episode nearest N = 30 at 8 cm/s (first seed) that kept cue maps."""
+    title = 'Fig. 3: cue maps'
+    mapped = [(folder, record) for folder, record in zip(folders, records)
+              if (folder / outputs.SNAPSHOTS_FILE).exists()]
+    if not mapped:
+        return Figure(title, None, 'skipped: no episode folder holds snapshots.npz (episodes '
+                      'analysed from ROS bags keep no cue maps); run the embedded study for '
+                      'fig. 3')
+    keys = [study.episode_key(folder) for folder, _ in mapped]
+    speed = figures.choose_speed([key['speed'] for key in keys])
+    population = figures.nearest([k['population'] for k in keys if k['speed'] == speed],
+                                 figures.FIG3_POPULATION)
+    seed, folder, record = min((k['seed'], f, r) for k, (f, r) in zip(keys, mapped)
+                               if k['speed'] == speed and k['population'] == population)
+    notes = []
+    if population != figures.FIG3_POPULATION or not np.isclose(speed, figures.PAPER_SPEED):
+        notes.append('nearest to the paper\'s N = 30, 8 cm/s in this design')
+    parameters = record.get('parameters', {})
+    with np.load(folder / outputs.SNAPSHOTS_FILE) as archive:
+        snapshots = {name: archive[name] for name in ('times', 'cue', 'poses')}
+    note = figures.fig3_cue_maps(
+        snapshots, out / figures.FIG3, population=population, speed=speed, seed=seed,
+        arena_side=parameters['world']['arena_side'],
+        body_radius=parameters['mona']['body_radius'], peak=parameters['world']['cue_peak'],
+        duration=float(record.get('duration', parameters['episode']['duration'])),
+        substitute='; '.join(notes))
+    return Figure(title, figures.FIG3, f'episode {folder.name}' + (f'; {note}' if note else ''))
+
+
+# The reading: numbers computed from the table.
+
+def cleaning_summary(table: pd.DataFrame) -> pd.DataFrame:
+    """Per (population, speed): median over seeds of the time to halve the mean cue (NaN when
+    most seeds never did) and of the final fraction of the initial cue left."""
+    rows = []
+    for (n, v), cell in table.groupby(['population', 'speed']):
+        halves, finals = [], []
+        for _, episode in cell.groupby('seed'):
+            episode = episode.sort_values('t')
+            below = episode.loc[episode['mean_cue_fraction'] <= 0.5, 't']
+            halves.append(below.iloc[0] if len(below) else np.inf)
+            finals.append(episode['mean_cue_fraction'].iloc[-1])
+        half = float(np.median(halves))
+        rows.append({'population': n, 'speed': v, 'seeds': len(finals),
+                     't_half_s': half if np.isfinite(half) else np.nan,
+                     'final_fraction': float(np.median(finals)),
+                     'end_s': float(cell['t'].max())})
+    return pd.DataFrame(rows)
+
+
+def settling(table: pd.DataFrame, column: str, speed: float,
+             populations: Sequence[int]) -> pd.DataFrame:
+    """Whether the median curve of ``column`` has settled by the end of the episode.
+
+    Compares the mean of the last tenth of the median-over-seeds curve with the tenth before
+    it; settled when the change is within 5 % of the curve's range (max - min).
+    """
+    rows = []
+    stats = figures.over_seeds(table[table['speed'] == speed], column)
+    for n in populations:
+        curve = stats[stats['population'] == n].sort_values('t')
+        t, y = curve['t'].to_numpy(), curve['median'].to_numpy()
+        end = t.max()
+        last = y[t > end * (1 - SETTLE_SHARE)]
+        before = y[(t > end * (1 - 2 * SETTLE_SHARE)) & (t <= end * (1 - SETTLE_SHARE))]
+        span = float(np.nanmax(y) - np.nanmin(y))
+        change = float(np.nanmean(last) - np.nanmean(before))
+        peak = int(np.nanargmax(y))
+        rows.append({'population': n, 'peak': float(y[peak]), 'peak_t_s': float(t[peak]),
+                     'start': float(y[0]), 'end_mean': float(np.nanmean(last)),
+                     'change': change,
+                     'settled': bool(abs(change) <= SETTLE_TOLERANCE * span) if span > 0
+                     else True})
+    return pd.DataFrame(rows)
+
+
+def _cm(speed: float) -> str:
+    return figures.speed_label(speed)
+
+
+def _order_claim(summary: pd.DataFrame, speed: float) -> str:
+    """Does the final cue fall as N grows at this speed?"""
+    cells = summary[summary['speed'] == speed].sort_values('population')
+    finals = cells['final_fraction'].to_numpy()
+    listing = ', '.join(f'N = {n}: {f:.1%}' for n, f in zip(cells['population'], finals))
+    if len(finals) < 2:
+        return f'only one population at {_cm(speed)} ({listing})'
+    verdict = 'falls as N grows' if np.all(np.diff(finals) < 0) else \
+        'does not fall monotonically with N'
+    return f'at {_cm(speed)} the cue left at the end {verdict} ({listing})'
+
+
+def _speed_claim(summary: pd.DataFrame) -> str:
+    """Do faster robots leave less cue, at every N?"""
+    speeds = sorted(summary['speed'].unique())
+    if len(speeds) < 2:
+        return 'one speed only: the speed effect is not tested'
+    slow, fast = speeds[0], speeds[-1]
+    wins = []
+    for n, cell in summary.groupby('population'):
+        by_speed = cell.set_index('speed')['final_fraction']
+        if slow in by_speed and fast in by_speed:
+            wins.append((n, by_speed[fast] < by_speed[slow]))
+    faster = [n for n, win in wins if win]
+    if len(faster) == len(wins):
+        return f'{_cm(fast)} robots leave less cue than {_cm(slow)} robots at every N'
+    return (f'{_cm(fast)} robots leave less cue than {_cm(slow)} robots at N = '
+            f'{", ".join(map(str, faster)) or "none"} of {", ".join(str(n) for n, _ in wins)}')
+
+
+def _anova_claim(name: str, frame: pd.DataFrame) -> str:
+    parts = []
+    for _, row in frame[frame['factor'] != 'residual'].iterrows():
+        if np.isnan(row['p']):
+            parts.append(f'{row["factor"]}: not tested (one level)')
+        else:
+            verdict = 'significant' if row['p'] < ALPHA else 'not significant'
+            parts.append(f'{row["factor"]} {verdict} (F = {row["F"]:.3g}, p = {row["p"]:.2g}, '
+                         f'eta^2 = {row["eta_sq"]:.2f})')
+    return f'ANOVA of {name}: ' + '; '.join(parts) + '.'
+
+
+def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
+    """The short reading of the results, as bullet points computed from the data."""
+    summary = cleaning_summary(table)
+    lines = []
+    timed = summary.dropna(subset=['t_half_s'])
+    if len(timed):
+        best = timed.sort_values(['t_half_s', 'final_fraction']).iloc[0]
+        lines.append(f'Fastest cleaning: N = {best["population"]:.0f} at {_cm(best["speed"])} '
+                     f'halves the mean cue in {best["t_half_s"]:.0f} s (median over seeds) and '
+                     f'leaves {best["final_fraction"]:.1%} of it after {best["end_s"]:.0f} s.')
+        never = summary[summary['t_half_s'].isna()]
+        if len(never):
+            lines.append('Never halved the cue (median over seeds): ' + ', '.join(
+                f'N = {n:.0f} at {_cm(v)}' for n, v in zip(never['population'],
+                                                            never['speed'])) + '.')
+    else:
+        best = summary.sort_values('final_fraction').iloc[0]
+        lines.append(f'No cell halved the mean cue; the least left: N = '
+                     f'{best["population"]:.0f} at {_cm(best["speed"])}, '
+                     f'{best["final_fraction"]:.1%} after {best["end_s"]:.0f} s.')
+    for speed in sorted(summary['speed'].unique(), reverse=True):
+        lines.append('More robots: ' + _order_claim(summary, speed) + '.')
+    lines.append('Faster robots: ' + _speed_claim(summary) + '.')
+    speed = figures.choose_speed(table['speed'].unique())
+    populations = figures.choose_populations(
+        table.loc[table['speed'] == speed, 'population'].unique())
+    for column, label, unit in (('ratio_near_source', 'ratio near the source', ''),
+                                ('coherency', 'coherency', ' m')):
+        settled = settling(table, column, speed, populations)
+        parts = [f'N = {row.population}: peak {row.peak:.2f}{unit} at {row.peak_t_s:.0f} s, '
+                 f'{row.end_mean:.2f}{unit} over the last tenth '
+                 f'({"settled" if row.settled else "still changing"}, {row.change:+.3f}{unit} '
+                 'from the tenth before)' for row in settled.itertuples()]
+        lines.append(f'The {label} at {_cm(speed)}: ' + '; '.join(parts) + '.')
+    lines.append(_anova_claim('the mean cue', tables['mean_cue']))
+    lines.append(_anova_claim('coherency', tables['coherency']))
+    return lines
+
+
+# Rendering.
+
+def markdown_table(frame: pd.DataFrame, formats: dict[str, str] | None = None) -> str:
+    """A DataFrame as a GitHub markdown table (NaN shown as an em dash)."""
+    formats = formats or {}
+
+    def cell(column: str, value: Any) -> str:
+        if isinstance(value, float) and np.isnan(value):
+            return '-'
+        spec = formats.get(column)
+        return format(value, spec) if spec else str(value)
+
+    lines = ['| ' + ' | '.join(frame.columns) + ' |',
+             '|' + '---|' * len(frame.columns)]
+    for row in frame.itertuples(index=False):
+        lines.append('| ' + ' | '.join(cell(c, v) for c, v in zip(frame.columns, row)) + ' |')
+    return '\n'.join(lines)
+
+
+def software() -> dict[str, str]:
+    """Versions of this software, Python and the libraries that shape the results."""
+    versions = {'mona_swarm': __version__, 'python': platform.python_version()}
+    for name in DEPENDENCIES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = 'not installed'
+    try:
+        versions['git'] = subprocess.run(
+            ['git', 'describe', '--always', '--dirty'], cwd=Path(__file__).parent,
+            capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return versions
+
+
+def differing_parameters(records: Sequence[dict[str, Any]]) -> list[str]:
+    """Parameters other than the factors and the seed that differ between episodes."""
+    values: dict[str, set] = {}
+    for record in records:
+        for section, fields in record.get('parameters', {}).items():
+            if section == 'study' or not isinstance(fields, dict):
+                continue
+            for key, value in fields.items():
+                name = f'{section}.{key}'
+                if name not in ('episode.population', 'episode.seed', 'controller.speed'):
+                    values.setdefault(name, set()).add(json.dumps(value))
+    return sorted(name for name, seen in values.items() if len(seen) > 1)
+
+
+def _timing(records: Sequence[dict[str, Any]], folders: Sequence[Path],
+            out: Path) -> list[str]:
+    lines = []
+    frame = pd.DataFrame([{**study.episode_key(folder),
+                           'wall': record.get('wall_time_s', np.nan),
+                           'rtf': record.get('real_time_factor', np.nan)}
+                          for folder, record in zip(folders, records)])
+    if frame['wall'].notna().any():
+        cells = frame.groupby(['population', 'speed']).agg(
+            episodes=('wall', 'size'), median_wall_s=('wall', 'median'),
+            max_wall_s=('wall', 'max'), real_time_factor=('rtf', 'median')).reset_index()
+        cells['speed'] = cells['speed'].map(_cm)
+        lines += ['Wall time of one episode (the simulation alone, from each episode.json):',
+                  '', markdown_table(cells, {'median_wall_s': '.1f', 'max_wall_s': '.1f',
+                                             'real_time_factor': '.0f'}), '',
+                  f'Sum over the {frame["wall"].notna().sum()} episodes: '
+                  f'{frame["wall"].sum():.0f} s of wall time (one core each).']
+    invocations = study.read_invocations(out)
+    if invocations:
+        lines += ['', 'Study runs into this folder (total wall time, parallel workers):', '']
+        for entry in invocations:
+            lines.append(f'- {entry["started"]}: ran {entry["ran"]}, kept {entry["kept"]} of '
+                         f'{entry["episodes"]} episodes on {entry["jobs"]} worker(s) in '
+                         f'{entry["wall_time_s"]:.1f} s')
+    return lines or ['No timing recorded in these episodes.']
+
+
+def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
+           records: Sequence[dict[str, Any]], drawn: Sequence[Figure],
+           tables: dict[str, pd.DataFrame], *, sources: Sequence[str] = (),
+           parameters_file: str | None = None) -> str:
+    """The text of report.md."""
+    levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
+    ends = table.groupby(list(study.KEYS))['t'].max()
+    runners = sorted({record.get('runner', 'unknown') for record in records})
+    lines = [
+        '# Mona swarm study: pollution-source localisation and cleanup (BEECLUST)', '',
+        f'Generated {time.strftime("%Y-%m-%d %H:%M:%S")} from {len(folders)} episodes '
+        f'({", ".join(runners)} runner) in '
+        + (', '.join(f'`{s}`' for s in sources) if sources else f'`{out}`') + '.', '',
+        '## Design', '',
+        f'- population N: {", ".join(map(str, levels["population"]))} robots',
+        f'- speed v_r: {", ".join(_cm(v) for v in levels["speed"])}',
+        f'- seeds: {", ".join(map(str, levels["seed"]))} (one episode per seed and cell)',
+        f'- episode length: {_range(ends)} s, metrics sampled every '
+        f'{float(np.median(np.diff(np.unique(table["t"])))):g} s',
+    ]
+    if parameters_file:
+        lines.append(f'- every parameter: [`{parameters_file}`]({parameters_file}) (ROS 2 '
+                     'parameter file; `mona-swarm study --config` reads it back); each episode '
+                     'folder\'s episode.json also records its own')
+    else:
+        lines.append('- every parameter: in each episode folder\'s episode.json')
+    differ = differing_parameters(records)
+    if differ:
+        lines.append(f'- **warning**: these parameters differ between episodes: '
+                     f'{", ".join(differ)}')
+    lines.append(f'- tidy table of every sample: [`{study.TABLE_FILE}`]({study.TABLE_FILE}) '
+                 f'({len(table)} rows)')
+    lines += ['', '## What the results show', '',
+              '*Computed from the table above; medians over seeds.*', '']
+    lines += [f'- {line}' for line in reading(table, tables)]
+    lines += ['', '## Figures', '']
+    for figure in drawn:
+        lines.append(f'### {figure.title}')
+        lines.append('')
+        if figure.file:
+            lines.append(f'![{figure.title}]({figure.file})')
+            lines.append('')
+        if figure.note:
+            lines.append(f'*Note: {figure.note}.*')
+            lines.append('')
+    lines += ['## Tables', '',
+              'ANOVA with time, population and speed as categorical factors (main effects, '
+              'type-II sums of squares, statsmodels `ols` + `anova_lm`). Time enters as '
+              f'{anova_tables.DEFAULT_LEVELS} levels: each episode contributes its value at '
+              't = ' + ', '.join(f'{t:g}' for t in anova_tables.time_levels(table)) +
+              ' s. Successive samples of one episode are not independent, so p-values are '
+              'optimistic; eta^2 is the factor\'s share of the total sum of squares.', '']
+    formats = {'sum_sq': '.4g', 'F': '.4g', 'p': '.3g', 'eta_sq': '.3f', 'levels': '.0f'}
+    for response, name in ANOVA_FILES.items():
+        label = 'Table 2: mean cue' if response == 'mean_cue' else 'Table 3: coherency'
+        lines += [f'### {label} ([`{name}`]({name}))', '',
+                  markdown_table(tables[response], formats), '']
+    summary = cleaning_summary(table)
+    summary['speed'] = summary['speed'].map(_cm)
+    lines += ['### Cleaning by cell', '',
+              'Median over seeds of the time until the mean cue is half its initial value '
+              '(- when most seeds never got there) and of the fraction left at the end.', '',
+              markdown_table(summary, {'t_half_s': '.0f', 'final_fraction': '.3f',
+                                       'end_s': '.0f'}), '']
+    lines += ['## Timing', ''] + _timing(records, folders, out) + ['']
+    lines += ['## Software', '']
+    lines += [f'- {name}: {version}' for name, version in software().items()]
+    return '\n'.join(lines) + '\n'
+
+
+def _range(values: pd.Series) -> str:
+    low, high = float(values.min()), float(values.max())
+    return f'{low:g}' if low == high else f'{low:g}-{high:g}'

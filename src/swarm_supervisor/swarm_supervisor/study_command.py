@@ -1,0 +1,80 @@
+"""``mona-swarm study``: run the paper's study (or analyse existing episodes) into one folder."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from swarm_supervisor import study
+from swarm_supervisor.config import load_config
+from swarm_supervisor.report import analyse
+
+
+def positive_int(text: str) -> int:
+    """Parse a worker count for argparse."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a whole number') from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'{value} is out of range: allowed 1 or more')
+    return value
+
+
+def register(subparsers) -> None:
+    """Add the ``study`` subcommand."""
+    parser = subparsers.add_parser(
+        'study', help='run the study (populations x speeds x seeds) and write its report',
+        description='Run every episode of the study section of the parameter file in parallel '
+                    '(resuming a partly finished --out), then write all_metrics.csv, figures '
+                    '3-6, the ANOVA tables and report.md into --out. With --from-episodes, '
+                    'run nothing and analyse the episode folders found there instead (e.g. '
+                    'from `mona-swarm analyze` on ROS bags).')
+    parser.add_argument('--out', type=Path, required=True, metavar='DIR',
+                        help='output folder (created; an existing study in it is resumed)')
+    parser.add_argument('--config', type=Path, metavar='YAML',
+                        help='ROS 2 parameter file whose study section is the design '
+                             '(default: ros_ws/config/mona_swarm.yaml)')
+    parser.add_argument('--quick', action='store_true',
+                        help='a reduced design for a smoke test: N = 5 and 10, the same '
+                             'speeds, the first two seeds, 60 s episodes')
+    parser.add_argument('--jobs', type=positive_int, metavar='J',
+                        help='worker processes (default: one per CPU)')
+    parser.add_argument('--from-episodes', type=Path, nargs='+', metavar='DIR',
+                        help='analyse the episode folders (metrics.csv + episode.json) at or '
+                             'under these folders; run nothing')
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run (or collect) the episodes, then write the figures, tables and report."""
+    started = time.perf_counter()
+    if args.from_episodes:
+        unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
+                                           ('--jobs', args.jobs)) if value]
+        if unused:
+            raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
+                                   '--from-episodes, which runs nothing')
+        folders = study.find_episodes(args.from_episodes)
+        if not folders:
+            raise study.StudyError('no episode folders (metrics.csv + episode.json) under '
+                                   + ', '.join(map(str, args.from_episodes)))
+        report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes])
+        print(f'{report}: {len(folders)} episodes analysed in '
+              f'{time.perf_counter() - started:.1f} s')
+        return 0
+    config = load_config(args.config)
+    if args.quick:
+        config = dataclasses.replace(config, study=study.quick_study(config.study))
+    rows = study.run_study(config, args.out, jobs=args.jobs)
+    folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config.study)]
+    report = analyse(args.out, folders, table=pd.DataFrame(rows),
+                     parameters_file=study.PARAMETERS_FILE)
+    last = study.read_invocations(args.out)[-1]
+    print(f'{report}: {last["episodes"]} episodes ({last["ran"]} run, {last["kept"]} kept) '
+          f'in {time.perf_counter() - started:.1f} s')
+    return 0
