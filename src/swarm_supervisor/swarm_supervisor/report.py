@@ -365,6 +365,11 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     if differ:
         lines.append(f'- **warning**: these parameters differ between episodes: '
                      f'{", ".join(differ)}')
+    incomplete = [folder.name for folder, record in zip(folders, records)
+                  if record.get('complete') is False]
+    if incomplete:
+        lines.append(f'- **warning**: these episodes ended early (their bags cover less than the '
+                     f'episode length): {", ".join(incomplete)}')
     lines.append(f'- tidy table of every sample: [`{study.TABLE_FILE}`]({study.TABLE_FILE}) '
                  f'({len(table)} rows)')
     lines += ['', '## What the results show', '',

@@ -21,6 +21,7 @@ import os
 import signal
 import sys
 import time
+import traceback
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,10 @@ TABLE_COLUMNS = KEYS + COLUMNS
 
 class StudyError(ParameterError):
     """The study's folder or episodes do not fit the requested design."""
+
+
+class EpisodeFailed(RuntimeError):
+    """An episode raised in a worker; the message names it and holds the worker's traceback."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,9 +129,12 @@ def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]) -> tuple[st
             _report_progress(t - reported[0])
             reported[0] = t
 
-    result = run_episode(config, snapshot_times=times, progress=progress)
-    _report_progress(config.episode.duration - reported[0])
-    outputs.write_episode(result, folder)
+    try:
+        result = run_episode(config, snapshot_times=times, progress=progress)
+        _report_progress(config.episode.duration - reported[0])
+        outputs.write_episode(result, folder)
+    except Exception:  # the traceback does not survive the trip to the parent otherwise
+        raise EpisodeFailed(f'episode {folder} failed:\n{traceback.format_exc()}') from None
     return folder, time.perf_counter() - started
 
 
