@@ -170,11 +170,12 @@ def test_quick_design_is_small_and_keeps_every_output():
     assert len(study.design(quick)) == 8
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
     """SIGINT to the whole process group (a terminal's Ctrl-C): exit 130, no worker left,
     finished episodes kept; the next run completes the rest."""
     out = tmp_path / 'out'
-    config = tiny_config(tmp_path / 'tiny.yaml', seeds=[1, 2, 3, 4, 5, 6], duration=30.0)
+    config = tiny_config(tmp_path / 'tiny.yaml', seeds=[1, 2, 3, 4])
     command = [sys.executable, '-m', 'swarm_supervisor.cli', 'study', '--out', str(out),
                '--config', str(config), '--jobs', '2']
     process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.PIPE,
@@ -202,7 +203,7 @@ def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
     kept = study.find_episodes([out / study.EPISODES_DIR])
-    assert 1 <= len(kept) < 24
+    assert 1 <= len(kept) < 16
     assert main(['study', '--out', str(out), '--config', str(config), '--jobs', '2']) == 0
     last = study.read_invocations(out)[-1]
-    assert last['kept'] == len(kept) and last['ran'] == 24 - len(kept)
+    assert last['kept'] == len(kept) and last['ran'] == 16 - len(kept)

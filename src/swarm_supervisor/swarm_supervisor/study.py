@@ -26,7 +26,6 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
@@ -348,7 +347,3 @@ def read_table(path: str | Path) -> pd.DataFrame:
         raise StudyError(f'{path} lacks columns {missing}')
     return table
 
-
-def summarize_design(table: pd.DataFrame) -> dict[str, list]:
-    """The factor levels present in a tidy table."""
-    return {key: sorted(np.unique(table[key]).tolist()) for key in KEYS}
