@@ -126,11 +126,13 @@ def test_changed_parameters_do_not_mix_with_finished_episodes(finished, tmp_path
     out = tmp_path / 'out'
     shutil.copytree(finished, out)
     before = episode_stamps(out)
+    saved = (out / 'parameters.yaml').read_text()
     config = tiny_config(tmp_path / 'longer.yaml', duration=30.0)
     assert main(['study', '--out', str(out), '--config', str(config)]) == 2
     error = capsys.readouterr().err
     assert 'episode.duration' in error and 'N3_v4_s1' in error
     assert episode_stamps(out) == before
+    assert (out / 'parameters.yaml').read_text() == saved
 
 
 def test_from_episodes_analyses_folders_without_snapshots(finished, tmp_path):

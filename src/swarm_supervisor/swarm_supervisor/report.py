@@ -85,6 +85,8 @@ def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     initial_mean = float(np.nanmedian(initial)) if initial.notna().any() else 0.0
     radius = records[0].get('parameters', {}).get('metrics', {}).get('source_radius', 0.7)
     drawn = [fig3(out, folders, records)]
+    if drawn[0].file is None:  # never leave an earlier run's fig. 3 beside these results
+        (out / figures.FIG3).unlink(missing_ok=True)
     drawn.append(Figure('Fig. 4: mean cue vs time', figures.FIG4,
                         figures.fig4_mean_cue(table, out / figures.FIG4,
                                               initial_mean=initial_mean)))
@@ -117,12 +119,16 @@ def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) 
     parameters = record.get('parameters', {})
     with np.load(folder / outputs.SNAPSHOTS_FILE) as archive:
         snapshots = {name: archive[name] for name in ('times', 'cue', 'poses')}
-    note = figures.fig3_cue_maps(
-        snapshots, out / figures.FIG3, population=population, speed=speed, seed=seed,
-        arena_side=parameters['world']['arena_side'],
-        body_radius=parameters['mona']['body_radius'], peak=parameters['world']['cue_peak'],
-        duration=float(record.get('duration', parameters['episode']['duration'])),
-        substitute='; '.join(notes))
+    try:
+        note = figures.fig3_cue_maps(
+            snapshots, out / figures.FIG3, population=population, speed=speed, seed=seed,
+            arena_side=parameters['world']['arena_side'],
+            body_radius=parameters['mona']['body_radius'],
+            peak=parameters['world']['cue_peak'],
+            duration=float(record.get('duration', parameters['episode']['duration'])),
+            substitute='; '.join(notes))
+    except figures.FigureSkipped as reason:
+        return Figure(title, None, f'skipped: {reason} ({folder.name})')
     return Figure(title, figures.FIG3, f'episode {folder.name}' + (f'; {note}' if note else ''))
 
 

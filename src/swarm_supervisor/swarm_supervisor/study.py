@@ -186,7 +186,6 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
     out = Path(out_dir)
     (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
-    write_ros_yaml(config, out / PARAMETERS_FILE)
     study = config.study
     times = snapshot_times(study)
     specs = design(study)
@@ -198,6 +197,7 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
             _check_kept(folders[spec], episode)
         else:
             pending.append((episode, times, str(folders[spec])))
+    write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
     # Longest first (cost grows with N), so the workers run out of work together.
     pending.sort(key=lambda task: -task[0].episode.population * task[0].episode.duration)
     jobs = max(1, min(jobs or _available_cpus(), len(pending) or 1))
