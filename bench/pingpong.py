@@ -64,8 +64,8 @@ class Responder(Node):
 class Central(Node):
     """The world's stand-in: one lockstep round = publish 2N, wait for 2N answers."""
 
-    def __init__(self, population: int) -> None:
-        super().__init__('ping')
+    def __init__(self, population: int, **kwargs) -> None:
+        super().__init__('ping', **kwargs)
         self.population = population
         self._ground = [self.create_publisher(Image, f'/mona_{i}/ground', SENSOR_QOS)
                         for i in range(population)]
@@ -108,14 +108,15 @@ class Central(Node):
             self._proximity[i].publish(scan)
 
 
-def run_central(population: int, rounds: int, timeout: float = 120.0) -> dict[str, float]:
+def run_central(population: int, rounds: int, timeout: float = 120.0,
+                context: rclpy.Context | None = None) -> dict[str, float]:
     """Wait for every responder, then time ``rounds`` lockstep rounds.
 
     Returns rounds per second and the discovery time; raises RuntimeError if not every robot
     connects within ``timeout`` wall seconds or a round stalls for 10 s.
     """
-    node = Central(population)
-    executor = SingleThreadedExecutor()
+    node = Central(population, context=context)
+    executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:
         started = time.monotonic()

@@ -67,9 +67,6 @@ is_uint "$timeout" || die "--timeout '$timeout': expected whole seconds"
 [[ $mode == lockstep || $mode == realtime ]] || die "--mode '$mode': expected lockstep or realtime"
 [[ -f $config ]] || die "--config '$config': no such file"
 config=$(cd "$(dirname "$config")" && pwd)/$(basename "$config")
-out=${out:-$REPO/results/swarm-$(date +%Y%m%d-%H%M%S)}
-mkdir -p "$out/logs" || die "cannot create '$out/logs'"
-out=$(cd "$out" && pwd)
 
 # --- executables: the repository's venv, else a sourced colcon workspace -----------------------
 if [[ -x $REPO/.venv/bin/python ]]; then
@@ -120,6 +117,11 @@ print(config.episode.population)
 EOF
 ) || exit 2
 
+# --- the output folder
+out=${out:-$REPO/results/swarm-$(date +%Y%m%d-%H%M%S)}
+mkdir -p "$out/logs" || die "cannot create '$out/logs'"
+out=$(cd "$out" && pwd)
+
 # --- a private ROS domain: locked for the run's lifetime, ports unused ------------------------
 domain_ports_free() {
   local base=$((7400 + 250 * $1)) port
@@ -167,7 +169,6 @@ EOF
 names=() pids=()
 declare -A status=() stopped=() forced=()
 : >"$out/processes.tsv"
-shm_before=$(ls /dev/shm 2>/dev/null)
 
 start() {  # name command... : its own session and process group, output to logs/<name>.log
   local name=$1; shift
@@ -193,12 +194,14 @@ wait_gone() {  # seconds indices... : true once none of them runs
     for i in "$@"; do alive "${pids[$i]}" && { running=1; break; }; done
     [[ -z $running ]] && return 0
     ((SECONDS < deadline)) || return 1
+    [[ -n $polite && -n $stopping ]] && return 1  # a signal cuts a polite wait short
     sleep 0.2
   done
 }
 stop_all() {  # SIGINT, then SIGTERM, then SIGKILL every process group still running
   local -a live
   local i
+  note_shm
   mapfile -t live < <(live_indices)
   ((${#live[@]})) || return 0
   for i in "${live[@]}"; do stopped[$i]=SIGINT; done
@@ -217,12 +220,24 @@ stop_all() {  # SIGINT, then SIGTERM, then SIGKILL every process group still run
   # Anything left in a group whose leader is gone.
   signal_groups KILL "${!pids[@]}"
 }
-clean_shm() {  # remove Fast DDS files in /dev/shm created during the run and used by nobody
-  local name used
+shm_seen=''
+note_shm() {  # remember the Fast DDS /dev/shm files our processes map (a killed one can't tell)
+  local i
+  for i in $(live_indices); do
+    shm_seen+=$'\n'$(grep -ho '/dev/shm/fast[^ ]*' "/proc/${pids[$i]}/maps" 2>/dev/null)
+  done
+}
+clean_shm() {  # remove our Fast DDS files from /dev/shm: the port files of our domain (their
+  # names carry the port) and the files our processes mapped, unless some process uses them
+  local name port ours used low=$((7400 + 250 * domain))
   used=$( (cat /proc/[0-9]*/maps; ls -l /proc/[0-9]*/fd) 2>/dev/null | grep -o '/dev/shm/[^ ]*')
   for name in $(ls /dev/shm 2>/dev/null); do
     [[ $name == fastrtps_* || $name == fast_datasharing* || $name == sem.fastrtps_* ]] || continue
-    grep -qxF "$name" <<<"$shm_before" && continue      # there before we started
+    port=$(grep -o 'port[0-9]*' <<<"$name" | head -1); port=${port#port}
+    ours=''
+    grep -qxF "/dev/shm/$name" <<<"$shm_seen" && ours=1
+    [[ -n $port ]] && ((port >= low && port < low + 250)) && ours=1
+    [[ -n $ours ]] || continue
     grep -qxF "/dev/shm/$name" <<<"$used" && continue   # in use by a live process
     rm -f "/dev/shm/$name"
   done
@@ -242,7 +257,7 @@ describe() {  # status -> words
   else echo "exit status $s"; fi
 }
 
-stopping=''
+stopping='' polite=''
 trap 'stopping=SIGINT' INT
 trap 'stopping=SIGTERM' TERM
 trap 'stop_all; clean_shm' EXIT  # also on an unexpected error in this script
@@ -282,6 +297,7 @@ while [[ -z $stopping && -z $outcome ]]; do
     fi
     quiet_end=${quiet_end:-$SECONDS}
   done
+  ((SECONDS % 10)) || note_shm
   if [[ -z $outcome ]] && ((timeout > 0 && SECONDS - started > timeout)); then
     say "no result after the --timeout of ${timeout} s: stopping the run"
     outcome=timeout
@@ -289,11 +305,17 @@ while [[ -z $stopping && -z $outcome ]]; do
 done
 [[ -n $stopping ]] && say "$stopping received: stopping every node"
 
-# After the shutdown announcement the nodes end by themselves; give them time to.
+polite=1
 if [[ $outcome == finished ]]; then
+  # After the shutdown announcement the nodes end by themselves; give them time to.
   mapfile -t live < <(live_indices)
   ((${#live[@]})) && wait_gone 30 "${live[@]}"
+elif [[ $outcome == failed && -n ${status[0]-} ]] && alive "${pids[1]}"; then
+  # The world is gone: the metrics node notices by itself and closes the bag.
+  say "waiting up to 30 s for the metrics node to notice and close its bag"
+  wait_gone 30 1
 fi
+polite=''
 stop_all
 collect
 clean_shm

@@ -13,13 +13,12 @@ the test (the machinery is in tests/harness.py).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from harness import Processes, private_domain, remove_shm_leftovers, ros_environment, shm_files
+from harness import Processes, private_domain, ros_environment
 
 
 @pytest.fixture
@@ -37,11 +36,8 @@ def ros_env(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, str]]:
 @pytest.fixture
 def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
     """Start processes in the test's ROS domain; all are stopped and cleaned up afterwards."""
-    before = shm_files()
     group = Processes(ros_env, tmp_path)
     try:
         yield group
     finally:
         group.stop_all()
-        time.sleep(0.2)
-        remove_shm_leftovers(before)

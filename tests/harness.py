@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -67,26 +68,56 @@ def shm_files() -> set[str]:
     return {p.name for p in SHM.glob('*') if p.name.startswith(SHM_PREFIXES)}
 
 
-def shm_in_use() -> set[str]:
-    """Names of /dev/shm files that some process maps or holds open."""
-    used = set()
-    for proc in Path('/proc').glob('[0-9]*'):
+def domain_shm_files(domain: int) -> set[str]:
+    """The Fast DDS port files of ``domain`` (fastrtps_port<P>..., P in the domain's block).
+
+    Port files name their port, so they can be told apart from other runs' files; segment
+    files (fastrtps_<hex>) cannot, and only :func:`mapped_shm` attributes those.
+    """
+    low = 7400 + 250 * domain
+    found = set()
+    for name in shm_files():
+        digits = re.search(r'fastrtps_port(\d+)', name)
+        if digits and low <= int(digits.group(1)) < low + 250:
+            found.add(name)
+    return found
+
+
+def group_pids(pgid: int) -> list[int]:
+    """The live processes of process group ``pgid``."""
+    pids = []
+    for stat in Path('/proc').glob('[0-9]*/stat'):
+        with contextlib.suppress(OSError, ValueError, IndexError):
+            if int(stat.read_text().rsplit(')', 1)[1].split()[2]) == pgid:
+                pids.append(int(stat.parent.name))
+    return pids
+
+
+def _shm_names(text: str) -> set[str]:
+    """The Fast DDS /dev/shm file names in ``text``."""
+    return {word[len('/dev/shm/'):] for word in text.split()
+            if word.startswith('/dev/shm/') and word[len('/dev/shm/'):].startswith(SHM_PREFIXES)}
+
+
+def mapped_shm(pids: list[int] | None = None) -> set[str]:
+    """The Fast DDS /dev/shm files that the given processes (default: all) map or hold open."""
+    used: set[str] = set()
+    procs = [Path('/proc') / str(pid) for pid in pids] if pids is not None else \
+        list(Path('/proc').glob('[0-9]*'))
+    for proc in procs:
         with contextlib.suppress(OSError):
-            used.update(line.rsplit('/dev/shm/', 1)[1].split()[0]
-                        for line in (proc / 'maps').read_text().splitlines()
-                        if '/dev/shm/' in line)
+            used |= _shm_names((proc / 'maps').read_text())
         with contextlib.suppress(OSError):
             for fd in (proc / 'fd').iterdir():
                 with contextlib.suppress(OSError):
-                    target = os.readlink(fd)
-                    if target.startswith('/dev/shm/'):
-                        used.add(target[len('/dev/shm/'):])
+                    used |= _shm_names(os.readlink(fd))
     return used
 
 
-def remove_shm_leftovers(before: set[str]) -> list[str]:
-    """Remove Fast DDS files created since ``before`` that no live process uses."""
-    leftovers = sorted(shm_files() - before - shm_in_use())
+def remove_shm_leftovers(domain: int, seen: set[str] = frozenset()) -> list[str]:
+    """Remove the Fast DDS files of a finished run that no live process uses: the port files
+    of ``domain`` and the files its processes were ``seen`` mapping. Returns their names."""
+    leftovers = sorted(((domain_shm_files(domain) | seen) & shm_files()) - mapped_shm())
     for name in leftovers:
         with contextlib.suppress(FileNotFoundError):
             (SHM / name).unlink()
@@ -126,6 +157,7 @@ class Processes:
         self.env = env
         self.log_dir = log_dir
         self.started: list[subprocess.Popen] = []
+        self.seen_shm: set[str] = set()
 
     def spawn(self, command: list[str], name: str, **kwargs) -> subprocess.Popen:
         """Start ``command`` with the test's ROS environment, output to ``<name>.log``."""
@@ -142,6 +174,15 @@ class Processes:
         """The output so far of the process started as ``name``."""
         return (self.log_dir / f'{name}.log').read_text(errors='replace')
 
-    def stop_all(self) -> None:
+    def note_shm(self) -> None:
+        """Remember the /dev/shm files the live processes map (a killed one cannot tell)."""
+        for process in self.started:
+            self.seen_shm |= mapped_shm(group_pids(process.pid))
+
+    def stop_all(self) -> list[str]:
+        """Stop every process group, then remove the shared-memory files they left."""
+        self.note_shm()
         for process in self.started:
             stop_group(process)
+        domain = int(self.env['ROS_DOMAIN_ID'])
+        return remove_shm_leftovers(domain, self.seen_shm)
