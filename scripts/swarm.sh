@@ -113,6 +113,8 @@ try:
     config = config.replace(**sections)
 except ParameterError as error:
     sys.exit(f'swarm.sh: bad parameter: {error}')
+if config.episode.population < 1:
+    sys.exit('swarm.sh: bad parameter: episode.population = 0: a ros run needs a robot')
 print(config.episode.population)
 EOF
 ) || exit 2
@@ -292,7 +294,7 @@ while [[ -z $stopping && -z $outcome ]]; do
   for i in 0 1; do  # world, metrics: a clean end comes with the supervisor's
     [[ -z $outcome && -n ${status[$i]-} ]] || continue
     if ((status[$i] != 0)) || ((quiet_end && SECONDS - quiet_end > 10)); then
-      say "${names[$i]} ended ($(describe "${status[$i]}")) during the run: stopping it"
+      say "${names[$i]} ended ($(describe "${status[$i]}")) during the run: stopping the run"
       outcome=failed
     fi
     quiet_end=${quiet_end:-$SECONDS}
