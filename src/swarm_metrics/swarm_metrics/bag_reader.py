@@ -159,11 +159,18 @@ class McapScan:
         return offset, opcode, handle.read(length)
 
     def _scan(self, handle) -> Iterator[RawMessage]:
-        if handle.read(8) != MAGIC:
+        magic = handle.read(8)
+        if magic != MAGIC:
+            if MAGIC.startswith(magic):
+                raise BagError(f'{self.path} ends inside its MCAP header (it has '
+                               f'{len(magic)} bytes): nothing is readable')
             raise BagError(f'{self.path} is not an MCAP file (no MCAP magic at its start)')
-        first = self._record(handle)
+        try:
+            first = self._record(handle)
+        except TruncatedBagError:
+            first = None
         if first is None:
-            raise BagError(f'{self.path}: {self.report.problem}')
+            raise BagError(f'{self.path} ends inside its MCAP header: nothing is readable')
         try:
             header = Header.read(ReadDataStream(BytesIO(first[2])))
         except Exception:  # noqa: BLE001 - any parse failure of untrusted bytes is damage
@@ -280,8 +287,10 @@ class McapScan:
 
     def _finish(self, handle, offset: int) -> None:
         """Check the footer's trailing magic and that the summary agrees with the data."""
-        if handle.read() != MAGIC:
-            self._fail(f'the footer at byte {offset} is not followed by the MCAP end magic')
+        tail = handle.read()
+        if tail != MAGIC:
+            self._fail(f'the footer at byte {offset} is not followed by the MCAP end magic',
+                       truncated=MAGIC.startswith(tail))
             return
         stats = self._statistics
         if stats is not None and (stats.message_count != self.report.messages
