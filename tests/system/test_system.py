@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
@@ -81,7 +82,10 @@ def test_bag_opens_with_rosbags_and_mcap(finished):
             if connection.topic == '/episode':
                 announcement = json.loads(
                     TYPESTORE.deserialize_cdr(raw, connection.msgtype).data)
-        custom = reader.metadata.get('custom_data') or {}
+        assert reader.message_count == sum(counts.values())
+    info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['storage_identifier'] == 'mcap'
+    custom = info['custom_data']
     assert topics['/episode'] == 'std_msgs/msg/String'
     assert topics['/world/poses'] == 'geometry_msgs/msg/PoseArray'
     assert topics['/world/status'] == 'std_msgs/msg/String'
@@ -101,7 +105,9 @@ def test_bag_opens_with_rosbags_and_mcap(finished):
         by_topic: dict[str, int] = {}
         for _, channel, _ in reader.iter_messages():
             by_topic[channel.topic] = by_topic.get(channel.topic, 0) + 1
-        assert reader.get_summary().statistics.message_count == sum(counts.values())
+        summary = reader.get_summary()
+        assert summary.statistics.message_count == sum(counts.values())
+        assert {index.compression for index in summary.chunk_indexes} == {'zstd'}
     assert by_topic == counts
 
 
