@@ -184,3 +184,42 @@ def test_bag_is_closed_on_every_ending(processes, fake_world, tmp_path, ending):
     samples = bag.metric('mean_cue')[0]
     assert len(samples) == 4  # t = 0 .. 3 s of the 3.2 s published
     assert np.all(np.diff(samples) == 1_000_000_000)
+
+
+def test_record_all_records_every_robot_topic(processes, fake_world, tmp_path):
+    from geometry_msgs.msg import TwistStamped
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import Bool
+
+    from mona_controller.messages import fill_twist, ground_image
+
+    config = load_config().replace(episode={'population': 2, 'duration': 60.0, 'seed': 1})
+    node = start_metrics_node(processes, tmp_path / 'out', 'record_all:=true')
+    fake_world.wait_for_metrics_node()
+    fake_world.run(config, steps=40)
+    make = fake_world.node.create_publisher
+    ground = [make(Image, qos.robot_topic(i, qos.GROUND), qos.SENSOR_QOS) for i in range(2)]
+    cmd = make(TwistStamped, qos.robot_topic(1, qos.CMD_VEL), qos.COMMAND_QOS)
+    cleaner = make(Bool, qos.robot_topic(0, qos.CLEANER), qos.CLEANER_QOS)
+    wait_for(lambda: all(p.get_subscription_count() for p in (*ground, cmd, cleaner)), 60,
+             'the per-robot subscriptions')
+    for k in range(5):
+        stamp = START_NS + (41 + k) * 32_000_000
+        for i, publisher in enumerate(ground):
+            msg = ground_image(i)
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
+            publisher.publish(msg)
+        twist = TwistStamped()
+        fill_twist(twist, stamp, 0.08, 0.0)
+        cmd.publish(twist)
+        cleaner.publish(Bool(data=k % 2 == 0))
+        time.sleep(0.05)
+    time.sleep(1.0)
+    node.send_signal(signal.SIGINT)
+    assert node.wait(60) == 0, processes.log('metrics')
+    bag = read_episode_bag(tmp_path / 'out' / 'episode_0' / 'bag')
+    topics = bag.report.topics
+    assert topics['/mona_0/ground'] == topics['/mona_1/ground'] == 5
+    assert topics['/mona_1/cmd_vel'] == 5
+    assert 1 <= topics['/mona_0/cleaner'] <= 5  # keep last 1: a state, not a stream
+    assert topics['/world/poses'] == 2  # both sent; by default only the sampled one
