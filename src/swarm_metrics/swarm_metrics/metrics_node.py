@@ -246,7 +246,7 @@ class MetricsNode(Node):
         self._record(topic, self.now_ns, data)
         if status.get('state') == 'running':
             self.running = True
-        elif status.get('state') == 'finished' and self._closing_at is None:
+        elif status.get('state') in ('finished', 'failed') and self._closing_at is None:
             self._closing_at = time.monotonic() + self.finish_grace
 
     def _on_poses(self, topic: str, data: bytes) -> None:
