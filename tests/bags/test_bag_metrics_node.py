@@ -14,10 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from std_msgs.msg import Float64, String
+from geometry_msgs.msg import PoseArray, TwistStamped
+from sensor_msgs.msg import Image
+from std_msgs.msg import Bool, Float64, String
 
 from mona_controller import qos
-from mona_controller.messages import PoseArrayFiller, cue_image
+from mona_controller.messages import PoseArrayFiller, cue_image, fill_twist, ground_image
 from mona_controller.mona import wheels_to_twist
 from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import find_mcap, read_episode_bag
@@ -37,10 +39,9 @@ class FakeWorld:
         self.node = rclpy.create_node('fake_world')
         self.episode = self.node.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
         self.status = self.node.create_publisher(String, qos.STATUS, qos.STATUS_QOS)
-        self.poses = self.node.create_publisher(*_pose_array(), qos.POSES, qos.POSES_QOS)
-        self.cleaning = self.node.create_publisher(*_pose_array(), qos.CLEANING,
-                                                   qos.CLEANING_QOS)
-        self.map = self.node.create_publisher(*_image(), qos.CUE_MAP, qos.MAP_QOS)
+        self.poses = self.node.create_publisher(PoseArray, qos.POSES, qos.POSES_QOS)
+        self.cleaning = self.node.create_publisher(PoseArray, qos.CLEANING, qos.CLEANING_QOS)
+        self.map = self.node.create_publisher(Image, qos.CUE_MAP, qos.MAP_QOS)
         self.filler = PoseArrayFiller()
         self.samples: list[float] = []
         self.node.create_subscription(Float64, '/metrics/mean_cue',
@@ -98,16 +99,6 @@ class FakeWorld:
             assert time.monotonic() < deadline, f'the metrics node gave {len(self.samples)} ' \
                                                 f'samples, not {count}'
             rclpy.spin_once(self.node, timeout_sec=0.1)
-
-
-def _pose_array():
-    from geometry_msgs.msg import PoseArray
-    return (PoseArray,)
-
-
-def _image():
-    from sensor_msgs.msg import Image
-    return (Image,)
 
 
 @pytest.fixture
@@ -187,12 +178,6 @@ def test_bag_is_closed_on_every_ending(processes, fake_world, tmp_path, ending):
 
 
 def test_record_all_records_every_robot_topic(processes, fake_world, tmp_path):
-    from geometry_msgs.msg import TwistStamped
-    from sensor_msgs.msg import Image
-    from std_msgs.msg import Bool
-
-    from mona_controller.messages import fill_twist, ground_image
-
     config = load_config().replace(episode={'population': 2, 'duration': 60.0, 'seed': 1})
     node = start_metrics_node(processes, tmp_path / 'out', 'record_all:=true')
     fake_world.wait_for_metrics_node()

@@ -32,7 +32,6 @@ def test_bag_opens_with_rosbags_and_mcap(episode):
     assert find_mcap(path) == path / 'bag.mcap'  # rosbags' <dir>/<dir>.mcap
     with Reader(path) as reader:
         assert set(reader.topics) == set(TOPICS)
-        assert reader.metadata['custom_data'] if hasattr(reader, 'metadata') else True
         messages = list(reader.messages())
         first = [m for c, _, m in messages if c.topic == '/episode'][0]
         assert json.loads(TYPESTORE.deserialize_cdr(first, 'std_msgs/msg/String').data)[
