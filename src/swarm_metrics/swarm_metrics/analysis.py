@@ -22,7 +22,7 @@ from swarm_metrics.bag_reader import BagError, EpisodeBag
 from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
 from swarm_world import cue as cue_field
 from swarm_world.params import WorldParams
-from swarm_world.sensors import ground_readings
+from swarm_world.world import clean_under
 
 #: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
 METRIC_NAMES = COLUMNS[1:]
@@ -89,23 +89,6 @@ class EpisodeSetup:
     def end_ns(self) -> int:
         """Sim time at which the episode ends."""
         return self.start_ns + round(self.duration * 1e9)
-
-
-def clean_tick(cue: np.ndarray, poses: np.ndarray, world: WorldParams, mona: MonaParams,
-               kernel: np.ndarray) -> None:
-    """Eq. 3 under the robots that cleaned at one tick (poses [M, 3], robot order), in place.
-
-    What ``World._clean`` does with the world's own poses, here with the poses of a
-    /world/cleaning message.
-    """
-    if not len(poses):
-        return
-    cells = cue_field.cell_index(poses[:, :2], world.cell_size, world.cells)
-    levels = None
-    if world.cleaning == 'literal':
-        ground = ground_readings(cue, world.cell_size, poses, mona.wheel_separation)
-        levels = ground.astype(np.float64).mean(axis=1)
-    cue_field.clean(cue, cells, kernel, literal_levels=levels)
 
 
 class MetricsReplica:
@@ -188,7 +171,7 @@ class MetricsReplica:
         if due:
             self._events = [event for event in self._events if event[0] > time_ns]
             for _, poses in sorted(due, key=lambda event: event[0]):
-                clean_tick(self.cue, poses, self.setup.world, self.setup.mona, self.kernel)
+                clean_under(self.cue, poses, self.setup.world, self.setup.mona, self.kernel)
         return self.cue
 
     def _row(self, k: int, poses: np.ndarray) -> dict[str, float]:

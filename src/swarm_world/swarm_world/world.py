@@ -109,11 +109,21 @@ class World:
 
     def _clean(self, robots: np.ndarray) -> None:
         """Eq. 3 under each cleaning robot, in robot order."""
-        poses = self.poses[robots]
-        cells = cue_field.cell_index(poses[:, :2], self.params.cell_size, self.params.cells)
-        levels = None
-        if self.params.cleaning == 'literal':
-            ground = ground_readings(self.cue, self.params.cell_size, poses,
-                                     self.mona.wheel_separation)
-            levels = ground.astype(np.float64).mean(axis=1)
-        cue_field.clean(self.cue, cells, self.kernel, literal_levels=levels)
+        clean_under(self.cue, self.poses[robots], self.params, self.mona, self.kernel)
+
+
+def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: MonaParams,
+                kernel: np.ndarray) -> None:
+    """One cleaning tick, in place: eq. 3 under each robot at ``poses`` [M, 3], in order.
+
+    The world calls it with its own poses; bag analysis and the metrics node call it with the
+    poses of a /world/cleaning message, so every replica of the cue is cleaned alike.
+    """
+    if not len(poses):
+        return
+    cells = cue_field.cell_index(poses[:, :2], params.cell_size, params.cells)
+    levels = None
+    if params.cleaning == 'literal':
+        ground = ground_readings(cue, params.cell_size, poses, mona.wheel_separation)
+        levels = ground.astype(np.float64).mean(axis=1)
+    cue_field.clean(cue, cells, kernel, literal_levels=levels)
