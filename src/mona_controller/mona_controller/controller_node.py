@@ -29,6 +29,7 @@ from collections.abc import Sequence
 import numpy as np
 import rclpy
 from geometry_msgs.msg import TwistStamped
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -43,11 +44,14 @@ from mona_controller.messages import (ReadingError, fill_twist, ground_from_imag
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, to_mapping, validate
+from mona_controller.shutdown import teardown
 
 #: Unanswered readings kept per topic while the other half of the pair is on its way.
 PENDING_LIMIT = 16
 #: Wall seconds between repeated warnings about bad input.
 WARN_EVERY = 5.0
+#: Wall seconds between checks that a world (or driver) listens to our commands.
+LISTEN_POLL = 0.02
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,12 +110,30 @@ class ControllerNode(Node):
         self.cleaner_msg = Bool()
         self.twist_msg = TwistStamped()
         self.twist_msg.header.frame_id = qos.base_frame(self.robot_id)
-        self.cleaner_pub = self.create_publisher(Bool, qos.CLEANER, qos.CLEANER_QOS)
-        self.cmd_pub = self.create_publisher(TwistStamped, qos.CMD_VEL, qos.COMMAND_QOS)
-        self.create_subscription(Image, qos.GROUND, self.on_ground, qos.SENSOR_QOS)
-        self.create_subscription(LaserScan, qos.PROXIMITY, self.on_proximity, qos.SENSOR_QOS)
-        self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
-        self.get_logger().info(f'robot {self.robot_id} ready, waiting for an episode')
+        quiet_pub, quiet_sub = qos.QUIET_PUBLISHER, qos.QUIET_SUBSCRIPTION
+        self.cleaner_pub = self.create_publisher(Bool, qos.CLEANER, qos.CLEANER_QOS,
+                                                 event_callbacks=quiet_pub)
+        self.cmd_pub = self.create_publisher(TwistStamped, qos.CMD_VEL, qos.COMMAND_QOS,
+                                             event_callbacks=quiet_pub)
+        self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS,
+                                 event_callbacks=quiet_sub)
+        # Listen to readings only once the answers can be delivered: the world starts a step
+        # when it sees our readings subscriptions, and an answer sent before our writer has
+        # matched its reader would arrive seconds late (a miss).
+        self.listen_timer = self.create_timer(LISTEN_POLL, self._listen_when_heard,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _listen_when_heard(self) -> None:
+        if self.cmd_pub.get_subscription_count() == 0 or \
+                self.cleaner_pub.get_subscription_count() == 0:
+            return
+        self.destroy_timer(self.listen_timer)
+        quiet_sub = qos.QUIET_SUBSCRIPTION
+        self.create_subscription(Image, qos.GROUND, self.on_ground, qos.SENSOR_QOS,
+                                 event_callbacks=quiet_sub)
+        self.create_subscription(LaserScan, qos.PROXIMITY, self.on_proximity, qos.SENSOR_QOS,
+                                 event_callbacks=quiet_sub)
+        self.get_logger().info(f'robot {self.robot_id} connected to a world')
 
     # --- episodes -----------------------------------------------------------------------
 
@@ -257,9 +279,7 @@ def main(args: Sequence[str] | None = None) -> int:
         logger.fatal(f'bad parameter: {error}')
         status = 2
     finally:
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        teardown(nodes)
     return status
 
 

@@ -6,7 +6,8 @@ robot topics are relative names, resolved in the robot's namespace ``/mona_<i>``
 
 from __future__ import annotations
 
-from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 
 def _profile(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
@@ -31,6 +32,13 @@ MAP_QOS = LATCHED_QOS
 STATUS_QOS = LATCHED_QOS
 EPISODE_QOS = LATCHED_QOS
 MARKERS_QOS = _profile(1)
+
+#: No default QoS event handlers for the per-robot topics. rclpy gives every publisher and
+#: subscription two (incompatible QoS, incompatible type) and the executor visits each of
+#: them in Python at every wait: for the world node's 4 N endpoints that dominated a lockstep
+#: round. The QoS is fixed here for both ends, and the world reports robots that never connect.
+QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
+QUIET_SUBSCRIPTION = SubscriptionEventCallbacks(use_default_callbacks=False)
 
 # Per robot, relative to the namespace /mona_<i>.
 GROUND = 'ground'

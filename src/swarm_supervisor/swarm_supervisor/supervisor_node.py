@@ -34,10 +34,13 @@ from std_msgs.msg import String
 from mona_controller import qos
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
+from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.placement import PlacementError, place_robots, placement_rng
 
 RUN_FILE = 'run.json'
+#: Wall seconds without a world node before a running episode counts as failed.
+WORLD_GONE = 5.0
 
 
 class SupervisorError(RuntimeError):
@@ -83,12 +86,23 @@ class Supervisor(Node):
         except ValueError:
             self.get_logger().warning(f'unreadable /world/status: {msg.data[:200]}')
 
-    def _spin_until(self, condition, timeout: float, what: str) -> None:
-        """Spin this node until ``condition()`` holds; raise after ``timeout`` wall seconds."""
-        deadline = time.monotonic() + timeout
+    def _spin_until(self, condition, timeout: float, what: str, *,
+                    watch_world: bool = False) -> None:
+        """Spin this node until ``condition()`` holds; raise after ``timeout`` wall seconds,
+        or (``watch_world``) once the world node has been gone for ``WORLD_GONE`` seconds."""
+        now = time.monotonic()
+        deadline, seen = now + timeout, now
         while not condition():
-            if time.monotonic() > deadline:
+            now = time.monotonic()
+            if now > deadline:
                 raise SupervisorError(f'timed out after {timeout:g} s waiting for {what}')
+            if watch_world:
+                if self.count_publishers(qos.STATUS) > 0:
+                    seen = now
+                elif now - seen > WORLD_GONE:
+                    raise SupervisorError(f'the world node is gone (no publisher on '
+                                          f'{qos.STATUS} for {WORLD_GONE:g} s) while waiting '
+                                          f'for {what}')
             rclpy.spin_once(self, timeout_sec=0.1)
 
     def wait_for_world(self, timeout: float | None = None) -> dict:
@@ -135,7 +149,7 @@ class Supervisor(Node):
                     and self.status.get('state') in ('finished', 'failed'))
 
         self._spin_until(over, timeout or self.options.episode_timeout,
-                         f'episode {episode} to finish')
+                         f'episode {episode} to finish', watch_world=True)
         if self.status['state'] == 'failed':
             raise SupervisorError(f'the world failed episode {episode}: '
                                   f'{self.status.get("error")}')
@@ -198,9 +212,7 @@ def main(args: Sequence[str] | None = None) -> int:
         logger.fatal(str(error))
         status = 1
     finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        teardown([node])
     return status
 
 

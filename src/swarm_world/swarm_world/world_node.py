@@ -47,6 +47,7 @@ from mona_controller.messages import (PoseArrayFiller, cue_grid, cue_image, fill
 from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, to_mapping, validate
+from mona_controller.shutdown import teardown
 from swarm_world.params import WorldParams
 from swarm_world.world import World
 
@@ -95,18 +96,19 @@ class RobotLink:
         self.robot_id = robot_id
         self.ground_msg = ground_image(robot_id)
         self.scan_msg = proximity_scan(robot_id, mona)
+        quiet_pub, quiet_sub = qos.QUIET_PUBLISHER, qos.QUIET_SUBSCRIPTION
         self.ground_pub = node.create_publisher(Image, qos.robot_topic(robot_id, qos.GROUND),
-                                                qos.SENSOR_QOS)
+                                                qos.SENSOR_QOS, event_callbacks=quiet_pub)
         self.scan_pub = node.create_publisher(LaserScan,
                                               qos.robot_topic(robot_id, qos.PROXIMITY),
-                                              qos.SENSOR_QOS)
+                                              qos.SENSOR_QOS, event_callbacks=quiet_pub)
         # cleaner before cmd_vel: when both are ready the executor takes them in this order.
         self.cleaner_sub = node.create_subscription(
             Bool, qos.robot_topic(robot_id, qos.CLEANER), partial(on_cleaner, robot_id),
-            qos.CLEANER_QOS)
+            qos.CLEANER_QOS, event_callbacks=quiet_sub)
         self.cmd_sub = node.create_subscription(
             TwistStamped, qos.robot_topic(robot_id, qos.CMD_VEL), partial(on_cmd, robot_id),
-            qos.COMMAND_QOS)
+            qos.COMMAND_QOS, event_callbacks=quiet_sub)
 
     def connected(self) -> bool:
         """A controller listens to both readings and publishes commands."""
@@ -349,6 +351,11 @@ class WorldNode(Node):
         late = np.flatnonzero(~self.answered & ~self.absent)
         self.misses[late] += 1
         self.consecutive[late] += 1
+        if len(late):
+            self.get_logger().warning(
+                f'step {self.world.steps}: no command from robots {late.tolist()} within '
+                f'{self.options.lockstep_deadline:g} s; they hold still',
+                throttle_duration_sec=5.0)
         gone = late[self.consecutive[late] >= self.options.absent_after]
         if len(gone):
             self.absent[gone] = True
@@ -471,9 +478,7 @@ def main(args: Sequence[str] | None = None) -> int:
         rclpy.logging.get_logger('world').fatal(f'bad parameter: {error}')
         status = 2
     finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        teardown([node])
     return status
 
 
