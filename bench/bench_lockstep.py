@@ -70,6 +70,8 @@ def run_system(args: argparse.Namespace, domain: int, out: Path) -> dict[str, fl
                '--duration', str(args.duration), '--seed', str(args.seed), '--out', str(out),
                '--mode', 'lockstep',
                '--controllers-per-process', str(args.controllers_per_process)]
+    for override in args.param:
+        command += ['-p', override]
     started = time.perf_counter()
     script = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.PIPE, text=True)
@@ -117,6 +119,8 @@ def main() -> None:
                         help='simulated seconds of the lockstep episode (a)')
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--controllers-per-process', type=int, default=1)
+    parser.add_argument('-p', dest='param', action='append', default=[], metavar='NAME:=VALUE',
+                        help='a parameter override for the nodes of (a), e.g. clock_period:=1.0')
     parser.add_argument('--keep', type=Path, help='keep the run of (a) in this folder')
     args = parser.parse_args()
     n = args.population

@@ -156,7 +156,8 @@ export ROS_DOMAIN_ID=$domain
 export RMW_IMPLEMENTATION=rmw_fastrtps_cpp
 export FASTRTPS_DEFAULT_PROFILES_FILE=${SWARM_FASTDDS_PROFILE:-$REPO/ros_ws/config/fastdds_localhost.xml}
 export ROS_LOG_DIR=$out/logs/ros
-export PYTHONUNBUFFERED=1
+export PYTHONUNBUFFERED=1 PYTHONFAULTHANDLER=1
+ulimit -c 0  # no core files from the SIGABRT of a stuck node
 export RCUTILS_LOGGING_BUFFERED_STREAM=0
 unset ROS_AUTOMATIC_DISCOVERY_RANGE ROS_LOCALHOST_ONLY ROS_STATIC_PEERS
 cat >"$out/ros_env.sh" <<EOF
@@ -200,7 +201,7 @@ wait_gone() {  # seconds indices... : true once none of them runs
     sleep 0.2
   done
 }
-stop_all() {  # SIGINT, then SIGTERM, then SIGKILL every process group still running
+stop_all() {  # SIGINT, SIGTERM, SIGABRT, SIGKILL: each to the process groups still running
   local -a live
   local i
   note_shm
@@ -214,9 +215,16 @@ stop_all() {  # SIGINT, then SIGTERM, then SIGKILL every process group still run
   say "SIGTERM to ${#live[@]} process(es) still running 20 s after SIGINT"
   signal_groups TERM "${live[@]}"
   wait_gone 5 "${live[@]}" && return 0
+  # Stuck in native code, where Python's handlers never run: SIGABRT makes the fault handler
+  # write every thread's Python stack to the node's log before the process dies.
+  mapfile -t live < <(live_indices)
+  for i in "${live[@]}"; do forced[$i]=SIGABRT; done
+  say "SIGABRT to ${#live[@]} process(es) still running 5 s after SIGTERM (stacks in their logs)"
+  signal_groups ABRT "${live[@]}"
+  wait_gone 3 "${live[@]}" && return 0
   mapfile -t live < <(live_indices)
   for i in "${live[@]}"; do forced[$i]=SIGKILL; done
-  say "SIGKILL to ${#live[@]} process(es) still running 5 s after SIGTERM"
+  say "SIGKILL to ${#live[@]} process(es) still running 3 s after SIGABRT"
   signal_groups KILL "${live[@]}"
   wait_gone 5 "${live[@]}"
   # Anything left in a group whose leader is gone.
