@@ -14,28 +14,31 @@ import sys
 from mona_controller.schema import ParameterError
 from swarm_supervisor.placement import PlacementError
 
-#: Modules that contribute subcommands, in the order ``--help`` lists them.
-COMMAND_MODULES = (
-    'swarm_supervisor.run_command',
-    'swarm_supervisor.study_command',
-    'swarm_supervisor.bag_commands',
-)
+#: Modules that contribute subcommands, in the order ``--help`` lists them, with the
+#: subcommands each adds (so a command imports only its own module's libraries).
+COMMAND_MODULES = {
+    'swarm_supervisor.run_command': ('run',),
+    'swarm_supervisor.study_command': ('study',),
+    'swarm_supervisor.bag_commands': ('analyze', 'replay', 'recover'),
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every subcommand registered."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser: with ``command``, only the module that provides it is loaded."""
     parser = argparse.ArgumentParser(
         prog='mona-swarm',
         description='Mona swarm pollution-source localisation and cleanup (BEECLUST).')
     subparsers = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
-    for name in COMMAND_MODULES:
+    modules = [name for name, commands in COMMAND_MODULES.items() if command in commands]
+    for name in modules or COMMAND_MODULES:
         importlib.import_module(name).register(subparsers)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(argv[0] if argv else None)
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)
