@@ -41,24 +41,26 @@ class Responder(Node):
 
     def __init__(self, robot: int) -> None:
         super().__init__('pong', namespace=f'mona_{robot}')
-        self._ground: int | None = None
+        self._stamps = {'ground': -1, 'proximity': -1}  # the latest stamp of each half
+        self._answered = -1
         self._cleaner = self.create_publisher(Bool, 'cleaner', LATCHED_QOS)
         self._cmd = self.create_publisher(TwistStamped, 'cmd_vel', SENSOR_QOS)
-        self.create_subscription(Image, 'ground', self._on_ground, SENSOR_QOS)
-        self.create_subscription(LaserScan, 'proximity', self._on_proximity, SENSOR_QOS)
+        self._answer = TwistStamped()
+        self._answer.twist.linear.x = 0.08
+        self.create_subscription(Image, 'ground', lambda m: self._on_half('ground', m),
+                                 SENSOR_QOS)
+        self.create_subscription(LaserScan, 'proximity', lambda m: self._on_half('proximity', m),
+                                 SENSOR_QOS)
 
-    def _on_ground(self, msg: Image) -> None:
-        self._ground = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-
-    def _on_proximity(self, msg: LaserScan) -> None:
+    def _on_half(self, half: str, msg: Image | LaserScan) -> None:
+        """Answer once both halves of a stamp are in (the two topics may arrive in any order)."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        if stamp != self._ground:
-            return
-        self._cleaner.publish(Bool(data=False))
-        answer = TwistStamped()
-        answer.header.stamp = msg.header.stamp
-        answer.twist.linear.x = 0.08
-        self._cmd.publish(answer)
+        self._stamps[half] = stamp
+        if self._stamps['ground'] == self._stamps['proximity'] != self._answered:
+            self._answered = stamp
+            self._cleaner.publish(Bool(data=False))
+            self._answer.header.stamp = msg.header.stamp
+            self._cmd.publish(self._answer)
 
 
 class Central(Node):
