@@ -24,8 +24,11 @@ COMMAND_QOS = _profile(5)
 CLEANER_QOS = _profile(1, latched=True)
 #: /clock as the ROS clock QoS (rclpy's time source subscribes best effort, depth 1).
 CLOCK_QOS = _profile(1, reliable=False)
-POSES_QOS = _profile(10)
-CLEANING_QOS = _profile(100)
+#: Poses and cleaning events feed the metrics, which must see every one: a deep history lets
+#: a metrics node that falls behind on a loaded machine catch up (about 30 s of steps)
+#: instead of losing the pose of a sample time.
+POSES_QOS = _profile(1000)
+CLEANING_QOS = _profile(1000)
 #: The cue map, its grid, /world/status and /episode: the latest value, kept for late joiners.
 LATCHED_QOS = _profile(1, latched=True)
 MAP_QOS = LATCHED_QOS
