@@ -213,6 +213,11 @@ def _speed_claim(summary: pd.DataFrame) -> str:
             f'{", ".join(map(str, faster)) or "none"} of {", ".join(str(n) for n, _ in wins)}')
 
 
+def p_value(p: float) -> str:
+    """'= 0.0027', or '< 1e-300' where the F distribution's tail underflows to 0."""
+    return '< 1e-300' if p == 0 else f'= {p:.2g}'
+
+
 def _anova_claim(name: str, frame: pd.DataFrame) -> str:
     parts = []
     for _, row in frame[frame['factor'] != 'residual'].iterrows():
@@ -220,8 +225,8 @@ def _anova_claim(name: str, frame: pd.DataFrame) -> str:
             parts.append(f'{row["factor"]}: not tested (one level)')
         else:
             verdict = 'significant' if row['p'] < ALPHA else 'not significant'
-            parts.append(f'{row["factor"]} {verdict} (F = {row["F"]:.3g}, p = {row["p"]:.2g}, '
-                         f'eta^2 = {row["eta_sq"]:.2f})')
+            parts.append(f'{row["factor"]} {verdict} (F = {row["F"]:.3g}, '
+                         f'p {p_value(row["p"])}, eta^2 = {row["eta_sq"]:.2f})')
     return f'ANOVA of {name}: ' + '; '.join(parts) + '.'
 
 
@@ -267,12 +272,14 @@ def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
 # Rendering.
 
 def markdown_table(frame: pd.DataFrame, formats: dict[str, str] | None = None) -> str:
-    """A DataFrame as a GitHub markdown table (NaN shown as an em dash)."""
+    """A DataFrame as a GitHub markdown table (NaN shown as '-'; strings as they are)."""
     formats = formats or {}
 
     def cell(column: str, value: Any) -> str:
         if isinstance(value, float) and np.isnan(value):
             return '-'
+        if isinstance(value, str):
+            return value
         spec = formats.get(column)
         return format(value, spec) if spec else str(value)
 
@@ -333,11 +340,14 @@ def _timing(records: Sequence[dict[str, Any]], folders: Sequence[Path],
                   f'{frame["wall"].sum():.0f} s of wall time (one core each).']
     invocations = study.read_invocations(out)
     if invocations:
-        lines += ['', 'Study runs into this folder (total wall time, parallel workers):', '']
+        lines += ['', 'Study runs into this folder (total wall time; the CPU time the episodes '
+                  'used, which does not grow when other programs share the machine):', '']
         for entry in invocations:
+            cpu = entry.get('cpu_time_s')
             lines.append(f'- {entry["started"]}: ran {entry["ran"]}, kept {entry["kept"]} of '
                          f'{entry["episodes"]} episodes on {entry["jobs"]} worker(s) in '
-                         f'{entry["wall_time_s"]:.1f} s')
+                         f'{entry["wall_time_s"]:.1f} s'
+                         + (f'; episodes used {cpu:.0f} s of CPU' if cpu else ''))
     return lines or ['No timing recorded in these episodes.']
 
 
@@ -401,8 +411,10 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     formats = {'sum_sq': '.4g', 'F': '.4g', 'p': '.3g', 'eta_sq': '.3f', 'levels': '.0f'}
     for response, name in ANOVA_FILES.items():
         label = 'Table 2: mean cue' if response == 'mean_cue' else 'Table 3: coherency'
+        shown = tables[response].astype({'p': object})
+        shown.loc[shown['p'] == 0, 'p'] = '< 1e-300'
         lines += [f'### {label} ([`{name}`]({name}))', '',
-                  markdown_table(tables[response], formats), '']
+                  markdown_table(shown, formats), '']
     summary = cleaning_summary(table)
     summary['speed'] = summary['speed'].map(_cm)
     lines += ['### Cleaning by cell', '',

@@ -117,24 +117,26 @@ def _report_progress(seconds: float) -> None:
             _progress_counter.value += seconds
 
 
-def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]) -> tuple[str, float]:
-    """Run one episode and write its folder; return (folder, wall seconds incl. writing)."""
+def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]
+                   ) -> tuple[str, float, float]:
+    """Run one episode and write its folder; return (folder, wall s, CPU s), with writing."""
     config, times, folder = task
-    started = time.perf_counter()
-    reported = [0.0]
+    started, cpu = time.perf_counter(), time.process_time()
+    reported = 0.0
 
     def progress(t: float) -> None:
-        if t - reported[0] >= _PROGRESS_STEP:
-            _report_progress(t - reported[0])
-            reported[0] = t
+        nonlocal reported
+        if t - reported >= _PROGRESS_STEP:
+            _report_progress(t - reported)
+            reported = t
 
     try:
         result = run_episode(config, snapshot_times=times, progress=progress)
-        _report_progress(config.episode.duration - reported[0])
+        _report_progress(config.episode.duration - reported)
         outputs.write_episode(result, folder)
     except Exception:  # the traceback does not survive the trip to the parent otherwise
         raise EpisodeFailed(f'episode {folder} failed:\n{traceback.format_exc()}') from None
-    return folder, time.perf_counter() - started
+    return folder, time.perf_counter() - started, time.process_time() - cpu
 
 
 # Parent side.
@@ -208,8 +210,11 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
         'started': stamp,
         'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
         'wall_time_s': round(time.perf_counter() - started, 3),
-        'episode_wall_time_s': {Path(folder).name: round(seconds, 3)
-                                for folder, seconds in sorted(ran.items())},
+        'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
+        'episode_wall_time_s': {Path(folder).name: round(wall, 3)
+                                for folder, (wall, _) in sorted(ran.items())},
+        'episode_cpu_time_s': {Path(folder).name: round(cpu, 3)
+                               for folder, (_, cpu) in sorted(ran.items())},
     })
     return rows
 
@@ -239,14 +244,18 @@ def _available_cpus() -> int:
 
 
 def _run_pending(pending: list, jobs: int, progress: bool | None,
-                 start_method: str) -> dict[str, float]:
-    """Run the tasks over a pool of ``jobs`` processes with progress bars; folder -> seconds."""
+                 start_method: str) -> dict[str, tuple[float, float]]:
+    """Run the tasks over a pool of ``jobs`` processes with progress bars.
+
+    Returns:
+        folder -> (wall seconds, CPU seconds) of each episode, writing included.
+    """
     if not pending:
         return {}
     context = multiprocessing.get_context(start_method)
     counter = context.Value('d', 0.0)
     total = sum(task[0].episode.duration for task in pending)
-    ran: dict[str, float] = {}
+    ran: dict[str, tuple[float, float]] = {}
     pool = context.Pool(jobs, initializer=_init_worker, initargs=(counter,))
     bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
                  '[{elapsed}<{remaining}]'
@@ -260,11 +269,11 @@ def _run_pending(pending: list, jobs: int, progress: bool | None,
             results = pool.imap_unordered(_run_and_write, pending, chunksize=1)
             while len(ran) < len(pending):
                 try:
-                    folder, wall = results.next(timeout=0.5)
+                    folder, wall, cpu = results.next(timeout=0.5)
                 except multiprocessing.TimeoutError:
                     pass
                 else:
-                    ran[folder] = wall
+                    ran[folder] = wall, cpu
                     episodes.update(1)
                     episodes.set_postfix_str(Path(folder).name, refresh=False)
                 seconds.update(min(counter.value, total) - seconds.n)
