@@ -130,7 +130,7 @@ def wait_for(condition, timeout: float, what: str) -> None:
 def test_online_metrics_equal_embedded_and_offline(processes, fake_world, tmp_path):
     config = load_config().replace(episode={'population': 20, 'duration': 8.0, 'seed': 4},
                                    metrics={'sample_period': 0.5})
-    node = start_metrics_node(processes, tmp_path / 'out', 'world_timeout:=60.0',
+    node = start_metrics_node(processes, tmp_path / 'out', 'world_lost_after:=60.0',
                               'cue_map_period:=4.0')
     fake_world.wait_for_metrics_node()
     fake_world.run(config)
@@ -158,7 +158,7 @@ def test_online_metrics_equal_embedded_and_offline(processes, fake_world, tmp_pa
 @pytest.mark.parametrize('ending', ['world_lost', 'SIGTERM', 'SIGINT'])
 def test_bag_is_closed_on_every_ending(processes, fake_world, tmp_path, ending):
     config = load_config().replace(episode={'population': 3, 'duration': 60.0, 'seed': 2})
-    node = start_metrics_node(processes, tmp_path / 'out', 'world_timeout:=1.5')
+    node = start_metrics_node(processes, tmp_path / 'out', 'world_lost_after:=5.0')
     fake_world.wait_for_metrics_node()
     fake_world.run(config, steps=100)
     bag_dir = tmp_path / 'out' / 'episode_0' / 'bag'

@@ -84,7 +84,7 @@ class MetricsNode(Node):
         self.clock_period = self._declare('clock_period', 0.1,
                                           'record /clock at most this often (sim s; 0: every '
                                           'tick)', 0.0, 1e6)
-        self.world_timeout = self._declare('world_timeout', 10.0,
+        self.world_lost_after = self._declare('world_lost_after', 10.0,
                                            'wall seconds without /world/status or poses while '
                                            'running before the world counts as lost', 0.5, 1e6)
         self.finish_grace = self._declare('finish_grace', 1.0,
@@ -303,9 +303,9 @@ class MetricsNode(Node):
         now = time.monotonic()
         if self._closing_at is not None and now >= self._closing_at:
             self.close('the world finished the episode')
-        elif self.running and now - self._last_world > self.world_timeout:
+        elif self.running and now - self._last_world > self.world_lost_after:
             self.get_logger().error(f'no /world/status or /world/poses for '
-                                    f'{self.world_timeout:g} s while running: the world is '
+                                    f'{self.world_lost_after:g} s while running: the world is '
                                     f'lost')
             self.close('the world was lost')
             if not self.done.done():
