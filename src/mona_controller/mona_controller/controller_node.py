@@ -86,8 +86,9 @@ def robot_id_of(namespace: str, requested: int) -> int:
 class ControllerNode(Node):
     """The controller of one Mona (namespace ``/mona_<robot_id>``)."""
 
-    def __init__(self, robot_id: int | None = None, **kwargs) -> None:
-        overrides = [Parameter('use_sim_time', value=True)]
+    def __init__(self, robot_id: int | None = None, *,
+                 parameter_overrides: Sequence[Parameter] = (), **kwargs) -> None:
+        overrides = [Parameter('use_sim_time', value=True), *parameter_overrides]
         namespace = None
         if robot_id is not None:
             overrides.append(Parameter('robot_id', value=robot_id))
@@ -208,8 +209,14 @@ class ControllerNode(Node):
             return  # kept until the announcement arrives
         ground, scan = self.ground.pop(stamp), self.scans.pop(stamp)
         self._forget_before(stamp)
-        if stamp <= self.answered_ns or not self.active:
-            return  # already answered, from before this episode, or not in it
+        if not self.active or stamp < self.answered_ns:
+            return  # not in this episode, or readings from before
+        if stamp == self.answered_ns:
+            # The world repeats readings it fears were lost: repeat the answer, do not redo it.
+            if stamp_to_ns(self.twist_msg.header.stamp) == stamp:
+                self.cleaner_pub.publish(self.cleaner_msg)
+                self.cmd_pub.publish(self.twist_msg)
+            return
         self.answered_ns = stamp
         if ground is None or scan is None:
             self._publish(stamp, False, 0.0, 0.0)  # unusable readings: hold still

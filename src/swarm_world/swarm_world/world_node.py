@@ -52,6 +52,8 @@ from swarm_world.params import WorldParams
 from swarm_world.world import World
 
 FINAL_FILE = 'world_final.npz'
+#: Wall seconds between repeats of step 0's readings to robots that have not answered yet.
+RESEND_PERIOD = 0.2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,6 +121,10 @@ class RobotLink:
     def publish(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
                 stamp_ns: int) -> None:
         fill_readings(self.ground_msg, self.scan_msg, ground, ranges, is_robot, stamp_ns)
+        self.resend()
+
+    def resend(self) -> None:
+        """Publish the current readings (again)."""
         self.ground_pub.publish(self.ground_msg)
         self.scan_pub.publish(self.scan_msg)
 
@@ -126,9 +132,9 @@ class RobotLink:
 class WorldNode(Node):
     """The simulated world of a Mona swarm, stepped in lockstep with its controllers."""
 
-    def __init__(self, **kwargs) -> None:
-        super().__init__('world', parameter_overrides=[Parameter('use_sim_time', value=False)],
-                         **kwargs)
+    def __init__(self, *, parameter_overrides: Sequence[Parameter] = (), **kwargs) -> None:
+        super().__init__('world', parameter_overrides=[Parameter('use_sim_time', value=False),
+                                                       *parameter_overrides], **kwargs)
         self.params = declare_section(self, WorldParams, 'world.')
         self.mona = declare_section(self, MonaParams, 'mona.')
         self.options = declare_section(self, WorldNodeParams)
@@ -164,6 +170,8 @@ class WorldNode(Node):
         self._reset_counters(0)
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
+        self.resend_timer = None  # lockstep, step 0 only
+        self.deadline_period = 0.0
         self.publish_status()
         self.get_logger().info(f'world ready ({self.options.mode}), waiting for an episode')
 
@@ -261,8 +269,6 @@ class WorldNode(Node):
         self.publish_status()
         self.get_logger().info(f'episode {self.episode} running')
         if self.options.mode == 'lockstep':
-            self.step_timer = self.create_timer(self.options.lockstep_deadline, self.on_deadline,
-                                                clock=self.wall)
             self._start_round()
         else:
             self._publish_readings()
@@ -291,10 +297,10 @@ class WorldNode(Node):
             self.finished.set_result(False)
 
     def _stop_timers(self) -> None:
-        for timer in (self.connect_timer, self.step_timer):
+        for timer in (self.connect_timer, self.step_timer, self.resend_timer):
             if timer is not None:
                 self.destroy_timer(timer)
-        self.connect_timer = self.step_timer = None
+        self.connect_timer = self.step_timer = self.resend_timer = None
 
     def _reset_counters(self, n: int) -> None:
         self.linear = np.zeros(n)
@@ -354,7 +360,7 @@ class WorldNode(Node):
         if len(late):
             self.get_logger().warning(
                 f'step {self.world.steps}: no command from robots {late.tolist()} within '
-                f'{self.options.lockstep_deadline:g} s; they hold still',
+                f'{self.deadline_period:g} s; they hold still',
                 throttle_duration_sec=5.0)
         gone = late[self.consecutive[late] >= self.options.absent_after]
         if len(gone):
@@ -376,11 +382,35 @@ class WorldNode(Node):
         self.angular[:] = 0.0
         self.expected_ns = self.time_ns
         self.pending = int(np.count_nonzero(~self.absent))
-        self.step_timer.reset()
+        # Step 0 may wait as long as connecting may take (new DDS matches can hold the first
+        # messages back); later rounds wait lockstep_deadline.
+        first = self.world.steps == 0
+        self._arm_deadline(self.options.start_timeout if first else
+                           self.options.lockstep_deadline)
         self._publish_readings()
+        if first:
+            # New DDS matches may drop or delay the first messages either way: repeat step 0's
+            # readings to the robots that have not answered (they repeat their answer).
+            self.resend_timer = self.create_timer(RESEND_PERIOD, self._resend, clock=self.wall)
+
+    def _arm_deadline(self, period: float) -> None:
+        if self.step_timer is not None and self.deadline_period == period:
+            self.step_timer.reset()
+            return
+        if self.step_timer is not None:
+            self.destroy_timer(self.step_timer)
+        self.step_timer = self.create_timer(period, self.on_deadline, clock=self.wall)
+        self.deadline_period = period
+
+    def _resend(self) -> None:
+        for i in np.flatnonzero(~self.answered & ~self.absent):
+            self.links[i].resend()
 
     def _advance(self) -> None:
         """Apply the round's commands, step the world, publish, start the next round."""
+        if self.resend_timer is not None:
+            self.destroy_timer(self.resend_timer)
+            self.resend_timer = None
         cleaner = self.cleaner & ~self.absent  # an absent robot does not clean
         self._step(cleaner)
         self._start_round()

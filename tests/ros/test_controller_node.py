@@ -1,0 +1,186 @@
+"""The controller node in this process, driven over DDS by a stand-in for the world."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import TwistStamped
+from rclpy.node import Node
+from sensor_msgs.msg import Image, LaserScan
+from std_msgs.msg import Bool, String
+
+from mona_controller import qos
+from mona_controller.controller import ControllerParams
+from mona_controller.controller_node import ControllerNode, parse_robots
+from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
+from mona_controller.mona import MonaParams
+from mona_controller.schema import ParameterError
+
+pytestmark = pytest.mark.ros
+
+ROBOT = 3
+START_NS = 5_000_000_000  # the episode starts at 5 s of sim time
+STEP_NS = 32_000_000
+NOTHING = np.full(5, np.inf, dtype=np.float32)
+
+
+class Driver(Node):
+    """Plays the world for one robot: announces episodes, sends readings, records answers."""
+
+    def __init__(self, robot: int, **kwargs) -> None:
+        super().__init__('driver', **kwargs)
+        self.robot = robot
+        # (kind, value) in the order the controller published them (source timestamps)
+        self.received: list[tuple[int, str, object]] = []
+        self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
+        self.ground_pub = self.create_publisher(Image, qos.robot_topic(robot, qos.GROUND),
+                                                qos.SENSOR_QOS)
+        self.scan_pub = self.create_publisher(LaserScan, qos.robot_topic(robot, qos.PROXIMITY),
+                                              qos.SENSOR_QOS)
+        self.cmd_sub = self.create_subscription(
+            TwistStamped, qos.robot_topic(robot, qos.CMD_VEL), self._on_cmd, qos.COMMAND_QOS)
+        self.create_subscription(Bool, qos.robot_topic(robot, qos.CLEANER), self._on_cleaner,
+                                 qos.CLEANER_QOS)
+        self.ground_msg = ground_image(robot)
+        self.scan_msg = proximity_scan(robot, MonaParams())
+
+    def _on_cmd(self, msg: TwistStamped, info) -> None:
+        self.received.append((info['source_timestamp'], 'cmd', (
+            stamp_to_ns(msg.header.stamp), msg.twist.linear.x, msg.twist.angular.z)))
+
+    def _on_cleaner(self, msg: Bool, info) -> None:
+        self.received.append((info['source_timestamp'], 'cleaner', msg.data))
+
+    @property
+    def answers(self) -> list[tuple[str, object]]:
+        return [(kind, value) for _, kind, value in sorted(self.received, key=lambda r: r[0])]
+
+    def connected(self) -> bool:
+        return (self.ground_pub.get_subscription_count() > 0
+                and self.scan_pub.get_subscription_count() > 0
+                and self.cmd_sub.get_publisher_count() > 0)
+
+    def announce(self, seed: int = 1, episode: int = 0, start_ns: int = START_NS) -> None:
+        self.episode_pub.publish(String(data=json.dumps({
+            'episode': episode, 'seed': seed, 'population': self.robot + 1, 'duration': 10.0,
+            'start_ns': start_ns, 'poses': [[1.0, 1.0, 0.0]] * (self.robot + 1)})))
+
+    def send(self, stamp_ns: int, ground=(0, 0), ranges=NOTHING, is_robot=None) -> None:
+        is_robot = np.zeros(len(ranges), dtype=bool) if is_robot is None else is_robot
+        fill_readings(self.ground_msg, self.scan_msg, np.asarray(ground, dtype=np.uint8),
+                      np.asarray(ranges, dtype=np.float32), np.asarray(is_robot), stamp_ns)
+        self.ground_pub.publish(self.ground_msg)
+        self.scan_pub.publish(self.scan_msg)
+
+    def answered(self, n: int) -> bool:
+        """Both halves of ``n`` answers arrived."""
+        kinds = [kind for _, kind, _ in self.received]
+        return kinds.count('cmd') >= n and kinds.count('cleaner') >= n
+
+    def commands(self) -> list[tuple[int, float, float]]:
+        return [value for kind, value in self.answers if kind == 'cmd']
+
+
+@pytest.fixture
+def pair(executor, spin_until):
+    """A controller node for robot 3 and its driver, connected."""
+    controller = ControllerNode(ROBOT, context=executor.context)
+    driver = Driver(ROBOT, context=executor.context)
+    executor.add_node(controller)
+    executor.add_node(driver)
+    spin_until(driver.connected, what='controller and driver connected')
+    return controller, driver
+
+
+def test_answers_each_reading_once_with_its_stamp_and_the_eq2_turn(pair, spin_until):
+    controller, driver = pair
+    driver.announce()
+    spin_until(lambda: controller.episode is not None, what='announcement received')
+    # Stronger cue under the left wheel: eq. 2 turns left (counter-clockwise, angular > 0).
+    driver.send(START_NS + STEP_NS, ground=(200, 100))
+    spin_until(lambda: driver.answered(1), what='first answer')
+    # The same stamp again (the world repeats readings it fears lost) gets the same answer,
+    # not a new one, whatever it carries.
+    driver.send(START_NS + STEP_NS, ground=(0, 255))
+    spin_until(lambda: driver.answered(2), what='repeated answer')
+    # Stronger on the right: turn right.
+    driver.send(START_NS + 2 * STEP_NS, ground=(100, 200))
+    spin_until(lambda: driver.answered(3), what='third answer')
+
+    (stamp1, v1, w1), repeated, (stamp2, v2, w2) = driver.commands()
+    assert repeated == (stamp1, v1, w1)
+    assert (stamp1, stamp2) == (START_NS + STEP_NS, START_NS + 2 * STEP_NS)
+    assert w1 > 0 > w2 and v1 > 0 and v2 > 0
+    # The exact eq. 2 numbers: wheels beta -/+ (l - r) / alpha, through wheels_to_twist.
+    mona, params = MonaParams(), ControllerParams()
+    beta = params.speed / mona.wheel_unit_speed
+    left, right = beta - 100 / params.alpha, beta + 100 / params.alpha
+    left, right = min(max(left, 0), mona.max_wheel_command), min(right, mona.max_wheel_command)
+    assert v1 == pytest.approx((left + right) / 2 * mona.wheel_unit_speed)
+    assert w1 == pytest.approx((right - left) * mona.wheel_unit_speed / mona.wheel_separation)
+    # Every answer is a cleaner followed by its cmd_vel, nothing else.
+    assert [kind for kind, _ in driver.answers] == ['cleaner', 'cmd'] * 3
+
+
+def test_readings_before_the_announcement_are_answered_after_it(pair, spin_until):
+    controller, driver = pair
+    driver.send(START_NS, ground=(50, 50))
+    for _ in range(20):
+        driver.executor.spin_once(timeout_sec=0.02)
+    assert driver.commands() == []  # no episode yet: time is not known
+    driver.announce()
+    spin_until(lambda: driver.answered(1), what='the early reading answered')
+    assert driver.commands()[0][0] == START_NS
+
+
+def test_meeting_a_robot_stops_and_cleans_and_a_new_episode_resets(pair, spin_until):
+    controller, driver = pair
+    driver.announce(seed=7)
+    spin_until(lambda: controller.episode is not None, what='announcement')
+    robot_ahead = np.full(5, np.inf, dtype=np.float32)
+    robot_ahead[2] = 0.01
+    driver.send(START_NS, ground=(200, 200), ranges=robot_ahead,
+                is_robot=np.isfinite(robot_ahead))
+    spin_until(lambda: driver.answered(1), what='answer')
+    assert driver.answers[-2:] == [('cleaner', True), ('cmd', (START_NS, 0.0, 0.0))]
+
+    driver.announce(seed=8, episode=1, start_ns=START_NS + 10 * STEP_NS)
+    spin_until(lambda: controller.episode['key'][0] == 1, what='second announcement')
+    driver.send(START_NS + 10 * STEP_NS, ground=(200, 200))
+    spin_until(lambda: driver.answered(2), what='answer in episode 1')
+    assert driver.answers[-2] == ('cleaner', False)  # following again, not waiting
+    assert driver.commands()[1][1] > 0
+
+
+def test_bad_sensor_values_give_finite_commands(pair, spin_until):
+    controller, driver = pair
+    driver.announce()
+    spin_until(lambda: controller.episode is not None, what='announcement')
+    weird = np.array([np.nan, -np.inf, -1.0, 1e30, np.inf], dtype=np.float32)
+    driver.send(START_NS, ground=(255, 0), ranges=weird,
+                is_robot=np.array([True, False, True, False, True]))
+    spin_until(lambda: driver.answered(1), what='first answer')
+    # A scan with the wrong number of beams: unusable, the robot is told to hold still.
+    driver.scan_msg.ranges = [0.01, 0.02]
+    driver.scan_msg.intensities = [0.0, 0.0]
+    driver.scan_msg.header.stamp.nanosec += STEP_NS
+    driver.ground_msg.header.stamp.nanosec += STEP_NS
+    driver.ground_pub.publish(driver.ground_msg)
+    driver.scan_pub.publish(driver.scan_msg)
+    spin_until(lambda: driver.answered(2), what='two answers')
+    first, second = driver.commands()
+    assert all(math.isfinite(x) for x in first[1:] + second[1:])
+    assert second[1:] == (0.0, 0.0)
+    # The repaired scan still shows the robot in contact (-inf and -1 m became 0 m).
+    assert driver.answers[0] == ('cleaner', True)
+
+
+def test_robot_ids_and_their_namespace():
+    assert parse_robots('0-3,7') == [0, 1, 2, 3, 7]
+    with pytest.raises(ParameterError, match='--robots'):
+        parse_robots('3-x')
+    with pytest.raises(ParameterError, match='distinct'):
+        parse_robots('1,1')
