@@ -103,7 +103,10 @@ class Supervisor(Node):
                     raise SupervisorError(f'the world node is gone (no publisher on '
                                           f'{qos.STATUS} for {WORLD_GONE:g} s) while waiting '
                                           f'for {what}')
-            rclpy.spin_once(self, timeout_sec=0.1)
+            if self.executor is not None:  # e.g. with the world and controllers in-process
+                self.executor.spin_once(timeout_sec=0.1)
+            else:
+                rclpy.spin_once(self, timeout_sec=0.1)
 
     def wait_for_world(self, timeout: float | None = None) -> dict:
         """Wait for the world node's status; return it."""

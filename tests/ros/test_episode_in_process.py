@@ -1,0 +1,57 @@
+"""A whole ros run in this process: supervisor, world and controller nodes in one executor,
+driven from Python through the Supervisor class. Lockstep reproduces the embedded runner."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+
+from mona_controller.controller_node import ControllerNode
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.runner import run_episode
+from swarm_supervisor.supervisor_node import RUN_FILE, Supervisor
+from swarm_world.world_node import FINAL_FILE, WorldNode
+
+pytestmark = pytest.mark.ros
+
+POPULATION, DURATION, SEED = 20, 4.0, 4  # with encounters and cleaning in episode 0
+
+
+def test_two_episodes_match_the_embedded_runner(executor, spin_until, tmp_path):
+    episode = [Parameter('episode.population', value=POPULATION),
+               Parameter('episode.duration', value=DURATION),
+               Parameter('episode.seed', value=SEED)]
+    out = Parameter('output_dir', value=str(tmp_path))
+    context = executor.context
+    world = WorldNode(context=context, parameter_overrides=[out])
+    controllers = [ControllerNode(i, context=context) for i in range(POPULATION)]
+    supervisor = Supervisor(context=context, parameter_overrides=[
+        *episode, out, Parameter('episodes', value=2)])
+    for node in (world, *controllers, supervisor):
+        executor.add_node(node)
+
+    supervisor.run()  # two episodes, then the shutdown announcement
+    spin_until(lambda: world.finished.done() and all(c.finished.done() for c in controllers),
+               what='every node told to shut down')
+
+    record = json.loads((tmp_path / RUN_FILE).read_text())
+    episodes = record['episodes']
+    assert [e['seed'] for e in episodes] == [SEED, SEED + 1]
+    assert episodes[1]['start_ns'] == episodes[0]['end_ns'] > 0  # sim time carries on
+    assert record['parameters']['episode']['population'] == POPULATION
+    for k, seed in enumerate((SEED, SEED + 1)):
+        config = SwarmConfig().replace(episode={'population': POPULATION,
+                                                'duration': DURATION, 'seed': seed})
+        embedded = run_episode(config)
+        final = np.load(tmp_path / f'episode_{k}' / FINAL_FILE)
+        assert int(final['seed']) == seed and final['misses'].sum() == 0
+        assert int(final['steps']) == embedded.steps == episodes[k]['steps']
+        assert np.array_equal(final['poses'], embedded.final_poses), k
+        assert np.array_equal(final['cue'], embedded.final_cue), k
+        assert embedded.encounters > 0
+    # Episode 0 cleaned part of the cue (eq. 3 ran through /cleaner and the world).
+    assert not np.array_equal(np.load(tmp_path / 'episode_0' / FINAL_FILE)['cue'],
+                              world.world.initial_cue)
