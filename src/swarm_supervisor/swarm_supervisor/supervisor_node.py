@@ -103,8 +103,9 @@ class Supervisor(Node):
                     raise SupervisorError(f'the world node is gone (no publisher on '
                                           f'{qos.STATUS} for {WORLD_GONE:g} s) while waiting '
                                           f'for {what}')
-            if self.executor is not None:  # e.g. with the world and controllers in-process
-                self.executor.spin_once(timeout_sec=0.1)
+            executor = self.executor  # rclpy.spin_once leaves a stale one behind: check
+            if executor is not None and self in executor.get_nodes():
+                executor.spin_once(timeout_sec=0.1)  # e.g. with in-process world, controllers
             else:
                 rclpy.spin_once(self, timeout_sec=0.1)
 
