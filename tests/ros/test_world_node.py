@@ -178,3 +178,19 @@ def test_a_silent_robot_becomes_absent_and_rejoins_when_it_answers(executor, spi
     expected = replay(world, commands)
     for step, pose in enumerate(expected):
         assert np.array_equal(observer.poses[step], pose), step
+
+
+def test_realtime_steps_on_the_wall_clock_with_the_latest_commands(executor, spin_until,
+                                                                   tmp_path):
+    def script(robot: int, step: int) -> list[tuple[int, float]]:
+        return [(0, 0.05)] if robot == 0 else []  # robot 1 never answers
+
+    world, robots, observer = start(executor, script, tmp_path, mode='realtime')
+    observer.announce(steps=16)
+    spin_until(lambda: finished(observer), what='episode finished')
+
+    final = np.load(tmp_path / 'episode_0' / FINAL_FILE)
+    assert int(final['steps']) == 16
+    assert final['poses'][0, 0] > POSES[0][0] + 0.001  # drove forward (+x)
+    assert np.array_equal(final['poses'][1], POSES[1])  # no command: held still
+    assert observer.status['absent'] == [1] and observer.status['misses'][1] == 16
