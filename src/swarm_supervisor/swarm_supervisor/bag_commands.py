@@ -18,22 +18,12 @@ from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics.analysis import episode_setup, recompute
 from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode_bag
 from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
+from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.outputs import EPISODE_FILE, write_episode
 from swarm_supervisor.runner import EpisodeResult
 
 BAG_NAMES = ('bag', 'bag' + SUFFIX)  # the metrics node's bag folder (and its recovered copy)
-
-
-def non_negative(text: str) -> float:
-    """A rate for argparse: a number >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
-    if not value >= 0 or value == float('inf'):
-        raise argparse.ArgumentTypeError(f'{value:g} is out of range: allowed [0, inf)')
-    return value
 
 
 def register(subparsers) -> None:
@@ -55,9 +45,9 @@ def register(subparsers) -> None:
         description='Publish every message of a bag on its topic, with /clock, timed by the '
                     'log (sim) times divided by --rate.')
     parser.add_argument('bag', type=Path, metavar='BAG')
-    parser.add_argument('--rate', type=non_negative, default=1.0,
+    parser.add_argument('--rate', type=bounded(float, 0), default=1.0,
                         help='sim seconds per wall second (default 1; 0: as fast as possible)')
-    parser.add_argument('--delay', type=non_negative, default=1.0, metavar='SECONDS',
+    parser.add_argument('--delay', type=bounded(float, 0), default=1.0, metavar='SECONDS',
                         help='wait this long for subscribers to connect before playing '
                              '(default 1)')
     parser.set_defaults(handler=replay)

@@ -8,20 +8,10 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import load_config
 from swarm_supervisor.outputs import write_episode
 from swarm_supervisor.runner import run_episode
-
-
-def cm_per_s(text: str) -> float:
-    """Parse a speed in cm/s for argparse (a clear message for a bad value)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
-    if not 0 <= value <= 100:
-        raise argparse.ArgumentTypeError(f'{value:g} cm/s is out of range: allowed [0, 100]')
-    return value
 
 
 def register(subparsers) -> None:
@@ -31,7 +21,7 @@ def register(subparsers) -> None:
         description='Run one episode in one process and write metrics.csv, episode.json, '
                     'snapshots.npz and a final cue-map PNG into --out.')
     parser.add_argument('--population', type=int, help='number of robots N (default: config)')
-    parser.add_argument('--speed', type=cm_per_s, metavar='CM_PER_S',
+    parser.add_argument('--speed', type=bounded(float, 0, 100, 'cm/s'), metavar='CM_PER_S',
                         help='forward speed in cm/s, e.g. 8 or 4 (default: config)')
     parser.add_argument('--seed', type=int, help='episode seed (default: config)')
     parser.add_argument('--duration', type=float, metavar='SECONDS',

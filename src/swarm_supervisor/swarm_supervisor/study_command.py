@@ -10,19 +10,9 @@ from pathlib import Path
 import pandas as pd
 
 from swarm_supervisor import study
+from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import load_config
 from swarm_supervisor.report import analyse
-
-
-def positive_int(text: str) -> int:
-    """Parse a worker count for argparse."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a whole number') from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f'{value} is out of range: allowed 1 or more')
-    return value
 
 
 def register(subparsers) -> None:
@@ -42,7 +32,7 @@ def register(subparsers) -> None:
     parser.add_argument('--quick', action='store_true',
                         help='a reduced design for a smoke test: N = 5 and 10, the same '
                              'speeds, the first two seeds, 60 s episodes')
-    parser.add_argument('--jobs', type=positive_int, metavar='J',
+    parser.add_argument('--jobs', type=bounded(int, 1), metavar='J',
                         help='worker processes (default: one per CPU)')
     parser.add_argument('--from-episodes', type=Path, nargs='+', metavar='DIR',
                         help='analyse the episode folders (metrics.csv + episode.json) at or '
