@@ -118,6 +118,7 @@ class MetricsNode(Node):
             self._subscribe(OccupancyGrid, qos.CUE_GRID, qos.MAP_QOS, self._on_stamped)
             self._subscribe(MarkerArray, qos.MARKERS, qos.MARKERS_QOS, self._on_unstamped)
         # Wall time, so a stalled /clock cannot stall the watchdog.
+        self._shutdown_requested = False
         self.create_timer(0.5, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'recording episodes into {self.output_dir} '
                                f'(record_all={self.record_all})')
@@ -218,8 +219,13 @@ class MetricsNode(Node):
         try:
             announcement = decode_json(RawMessage(topic, type_name(String), 0, data))
             if announcement.get('shutdown'):
-                self.close('the supervisor announced the shutdown')
-                self.done.set_result(0) if not self.done.done() else None
+                # The world's last status and poses travel on other topics and may still be
+                # on their way: close after the same grace as a finished episode.
+                self._shutdown_requested = True
+                if self.bag is None:
+                    self.done.set_result(0) if not self.done.done() else None
+                elif self._closing_at is None:
+                    self._closing_at = time.monotonic() + self.finish_grace
                 return
             setup = EpisodeSetup.from_announcement(announcement)
         except (BagError, AnnouncementError) as error:
@@ -302,7 +308,10 @@ class MetricsNode(Node):
         """Close a finished episode after its grace; give up on a silent world."""
         now = time.monotonic()
         if self._closing_at is not None and now >= self._closing_at:
-            self.close('the world finished the episode')
+            self.close('the supervisor announced the shutdown' if self._shutdown_requested
+                       else 'the world finished the episode')
+            if self._shutdown_requested and not self.done.done():
+                self.done.set_result(0)
         elif self.running and now - self._last_world > self.world_lost_after:
             self.get_logger().error(f'no /world/status or /world/poses for '
                                     f'{self.world_lost_after:g} s while running: the world is '
