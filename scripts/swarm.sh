@@ -278,7 +278,7 @@ say "domain $domain, $population robots, $episodes episode(s), $mode, output $ou
 # Starting many Python processes takes a while on a small machine: scale the world's patience.
 start_timeout=$((population * 3 > 60 ? population * 3 : 60))
 start world "$world_exe" "${ros_args[@]}" -p "mode:=$mode" -p "output_dir:=$out" \
-  -p "start_timeout:=$start_timeout.0"
+  -p "start_timeout:=$start_timeout.0" -p wait_for_recorders:=1
 start metrics "$metrics_exe" "${ros_args[@]}" -p "output_dir:=$out"
 for ((first = 0; first < population; first += per_process)); do
   last=$((first + per_process - 1)); ((last < population)) || last=$((population - 1))

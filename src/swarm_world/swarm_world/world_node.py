@@ -67,6 +67,10 @@ class WorldNodeParams:
     absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
                               doc='consecutive misses after which a robot is absent and no '
                                   'longer waited for (it rejoins when it answers)')
+    wait_for_recorders: int = param(0, unit='subscribers', low=0, high=1000,
+                                    doc='subscribers of /world/poses and /world/cleaning (the '
+                                        'metrics node) to wait for before an episode starts; '
+                                        'their topics keep no history for late joiners')
     start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
                                  doc='how long to wait for every controller to connect')
     clock_period: float = param(0.1, unit='s (sim)', low=0.0, high=3600.0,
@@ -247,7 +251,9 @@ class WorldNode(Node):
     def _wait_for_controllers(self) -> None:
         n = self.world.population
         missing = [i for i in range(n) if not self.links[i].connected()]
-        if not missing:
+        recorders = min(self.poses_pub.get_subscription_count(),
+                        self.cleaning_pub.get_subscription_count())
+        if not missing and recorders >= self.options.wait_for_recorders:
             self.destroy_timer(self.connect_timer)
             self.connect_timer = None
             self._begin()
@@ -258,6 +264,12 @@ class WorldNode(Node):
             self.connect_timer = None
             shown = ', '.join(str(i) for i in missing[:20]) + (', ...' if len(missing) > 20
                                                                 else '')
+            if not missing:
+                self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s '
+                          f'{recorders} of {self.options.wait_for_recorders} recorders '
+                          f'subscribed to {qos.POSES} and {qos.CLEANING}; start the '
+                          f'metrics_node')
+                return
             self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s no '
                       f'controller connected for {len(missing)} of {n} robots ({shown}); start '
                       f'a mona_controller_node for each of /mona_0 .. /mona_{n - 1}')
