@@ -193,6 +193,10 @@ class Recomputation:
     cue_map_max_diff: int  #: max |map - rint(rebuilt cue)| over them (cue units)
     last_status: dict | None  #: the world's final /world/status
     snapshots: dict[float, tuple[np.ndarray, np.ndarray]]  #: t -> (cue, poses)
+    cue_maps_differing: int = 0  #: how many of the checked cue maps differ at all
+    cue_map_first_diff_ns: int | None = None  #: log time of the first map that differs
+    #: (log time, metric) of the first online sample that differs from the recomputation
+    online_first_diff: tuple[int, str] | None = None
 
     @property
     def covered(self) -> float:
@@ -250,7 +254,7 @@ def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomp
                 snapshots[pending.pop(0)] = (replica.cue.copy(), poses.copy())
 
     keep([replica.initial()], setup.initial_poses)
-    checked, worst = 0, 0
+    checked, worst, differing, first_diff = 0, 0, 0, None
     for time_ns, kind, payload in events:
         if kind == 0:
             replica.cleaning(time_ns, payload)
@@ -267,20 +271,26 @@ def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomp
                 difference = np.abs(payload.astype(np.int16)
                                     - np.rint(cue).astype(np.int16)).max()
                 checked, worst = checked + 1, max(worst, int(difference))
+                if difference:
+                    differing += 1
+                    first_diff = time_ns if first_diff is None else first_diff
             else:
                 raise BagError(f'{bag.path}: /world/cue_map is {payload.shape}, the '
                                f'parameters give {cue.shape}')
     keep(replica.finish(), replica.pending_poses)
-    online, diff = _compare_online(bag, timed)
+    online, diff, online_first = _compare_online(bag, timed)
     return Recomputation(setup, [row for _, row in timed], replica.cue_at(2**63 - 1).copy(),
                          replica.poses.copy(), online, diff, checked, worst,
-                         bag.status[-1][1] if bag.status else None, snapshots)
+                         bag.status[-1][1] if bag.status else None, snapshots,
+                         differing, first_diff, online_first)
 
 
-def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]) -> tuple[int, float | None]:
-    """(online samples, max |online - offline|) over the samples both have."""
+def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]
+                    ) -> tuple[int, float | None, tuple[int, str] | None]:
+    """(online samples, max |online - offline| over the samples both have, (log time, metric)
+    of the first sample that differs)."""
     offline = {t: row for t, row in timed}
-    worst, matched = None, 0
+    worst, matched, first = None, 0, None
     for name in METRIC_NAMES:
         for t, value in bag.metrics.get(name, []):
             if t in offline:
@@ -292,6 +302,8 @@ def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]) -> tuple[int
                     difference = math.inf if math.isnan(difference) else difference
                 worst = difference if worst is None else max(worst, difference)
                 matched += 1
+                if difference and (first is None or t < first[0]):
+                    first = (t, name)
     online = max((len(bag.metrics.get(name, [])) for name in METRIC_NAMES), default=0)
-    return online, (worst if matched else None)
+    return online, (worst if matched else None), first
 

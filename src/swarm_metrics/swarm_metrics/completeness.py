@@ -1,0 +1,272 @@
+"""Is an episode's record complete? The checks every consumer of a bag runs before trusting it.
+
+A bag can be readable and still wrong: a metrics node that started late misses the first
+seconds, a lost connection leaves a gap, a world that died never says it finished, a dropped
+cleaning event makes the rebuilt cue drift from the world's. Each check returns a
+:class:`Finding` per failure (empty list: passed):
+
+* ``announcement``: the /episode announcement is there and parses;
+* ``finished``: the world's /world/status with ``"state": "finished"`` for the episode is there;
+* ``samples``: the metric samples start at t = 0 and miss no ``sample_period`` boundary up to
+  the episode's duration (the recomputed rows, and the online /metrics/* samples if any);
+* ``cue_maps``: every recorded /world/cue_map equals the cue rebuilt from the cleaning record,
+  exactly (both cleaning modes are deterministic); a missing cleaning event shows up here;
+* ``online_metrics``: the online /metrics/* samples equal the recomputation exactly.
+
+Pure Python (no ROS): the inputs are the tables of :mod:`swarm_metrics.bag_reader` and the
+:class:`~swarm_metrics.analysis.Recomputation`, or plain numbers for the individual checks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from swarm_metrics.analysis import METRIC_NAMES, Recomputation, episode_setup, recompute
+from swarm_metrics.bag_reader import STATUS, BagError, EpisodeBag
+
+#: Every check, in the order they are reported.
+CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics')
+#: world.cleaning modes whose cue the cleaning record rebuilds exactly (swarm_world.cue.clean).
+DETERMINISTIC_CLEANING = frozenset({'monotone', 'literal'})
+#: Where the sample checks look.
+RECOMPUTED, ONLINE = 'recomputed rows', '/metrics/*'
+_SHOWN_SPANS = 4  # gaps listed in a samples finding before '...'
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One failed check: which, where it failed, and what is wrong or missing."""
+
+    check: str  #: one of :data:`CHECKS`
+    where: str  #: the topic, table or file that failed it
+    detail: str  #: what is missing or differs (first missing second, largest difference, ...)
+
+    def __str__(self) -> str:
+        return f'{self.check} ({self.where}): {self.detail}'
+
+    def to_dict(self) -> dict[str, str]:
+        """The finding as episode.json stores it."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, mapping: Any) -> Finding:
+        """Read a finding back from episode.json.
+
+        Raises:
+            ValueError: ``mapping`` is not a finding.
+        """
+        if not isinstance(mapping, dict) or not all(
+                isinstance(mapping.get(key), str) for key in ('check', 'where', 'detail')):
+            raise ValueError(f'not a completeness finding: {mapping!r}')
+        return cls(mapping['check'], mapping['where'], mapping['detail'])
+
+
+def failed_checks(findings: Iterable[Finding]) -> list[str]:
+    """The names of the checks that failed, in :data:`CHECKS` order."""
+    failed = {finding.check for finding in findings}
+    return [check for check in CHECKS if check in failed]
+
+
+def describe(findings: Sequence[Finding], indent: str = '  ') -> str:
+    """The findings, one per line, for an error message or a report."""
+    return '\n'.join(f'{indent}{finding}' for finding in findings)
+
+
+# --- samples ------------------------------------------------------------------------------
+
+def last_index(duration: float, sample_period: float) -> int:
+    """The index k of the last sample boundary k * sample_period within the episode."""
+    return round(duration * 1e9) // round(sample_period * 1e9)
+
+
+def check_indices(present: Iterable[int], last: int, sample_period: float,
+                  where: str) -> list[Finding]:
+    """The ``samples`` check on sample indices (k of t = k * sample_period).
+
+    Args:
+        present: the indices recorded (others, e.g. beyond ``last``, are ignored).
+        last: the index of the last boundary of the episode (:func:`last_index`).
+        sample_period: s, to report times.
+        where: what was checked, for the finding.
+
+    Returns:
+        One finding naming the first missing second, how many samples are missing and the
+        gaps, or none when every boundary 0..last is present.
+    """
+    present = set(present)
+    missing = [k for k in range(last + 1) if k not in present]
+    if not missing:
+        return []
+    spans: list[list[int]] = []
+    for k in missing:
+        if spans and k == spans[-1][1] + 1:
+            spans[-1][1] = k
+        else:
+            spans.append([k, k])
+    shown = ', '.join(f'{a * sample_period:g}' if a == b else
+                      f'{a * sample_period:g}-{b * sample_period:g}'
+                      for a, b in spans[:_SHOWN_SPANS])
+    more = ', ...' if len(spans) > _SHOWN_SPANS else ''
+    return [Finding('samples', where,
+                    f'{len(missing)} of {last + 1} samples (every {sample_period:g} s from '
+                    f't = 0 to {last * sample_period:g} s) are missing, the first at t = '
+                    f'{missing[0] * sample_period:g} s (missing t = {shown}{more} s)')]
+
+
+def check_rows(rows: Sequence[Mapping[str, float]], duration: float, sample_period: float,
+               where: str = RECOMPUTED) -> list[Finding]:
+    """The ``samples`` check on metrics rows (each with its time ``'t'`` in s).
+
+    Args:
+        rows: metrics.csv rows, labelled with their sample boundary.
+        duration: s, the episode's length.
+        sample_period: s.
+        where: what the rows are, for the finding.
+    """
+    return check_indices((round(row['t'] / sample_period) for row in rows),
+                         last_index(duration, sample_period), sample_period, where)
+
+
+def check_online(metrics: Mapping[str, Sequence[tuple[int, float]]], start_ns: int,
+                 duration: float, sample_period: float) -> list[Finding]:
+    """The ``samples`` check on the online /metrics/<name> samples of a bag (if it has any).
+
+    A sample counts when every metric has it, at its boundary's log time
+    (``start_ns + k * sample_period``).
+
+    Args:
+        metrics: name -> [(log time ns, value)], as :class:`EpisodeBag` holds them.
+        start_ns: sim time of the episode's t = 0.
+    """
+    if not any(metrics.get(name) for name in METRIC_NAMES):
+        return []  # no online metrics recorded: nothing to check
+    sample_ns = round(sample_period * 1e9)
+    present = None
+    for name in METRIC_NAMES:
+        indices = {(t - start_ns) // sample_ns for t, _ in metrics.get(name, [])
+                   if t >= start_ns and (t - start_ns) % sample_ns == 0}
+        present = indices if present is None else present & indices
+    return check_indices(present, last_index(duration, sample_period), sample_period, ONLINE)
+
+
+# --- the other checks ---------------------------------------------------------------------
+
+def check_announcement(bag: EpisodeBag) -> list[Finding]:
+    """The ``announcement`` check: the bag's /episode announcement is there and parses."""
+    try:
+        episode_setup(bag)
+    except BagError as error:
+        return [Finding('announcement', '/episode', str(error))]
+    return []
+
+
+def check_finished(statuses: Sequence[tuple[int, dict]], episode: int,
+                   start_ns: int = 0) -> list[Finding]:
+    """The ``finished`` check: a /world/status says ``finished`` for ``episode``.
+
+    Args:
+        statuses: [(log time ns, status document)].
+        episode: the episode number the announcement gives.
+        start_ns: sim time of t = 0, to report times.
+    """
+    mine = [(t, s) for t, s in statuses if s.get('episode') == episode]
+    if any(status.get('state') == 'finished' for _, status in mine):
+        return []
+    if mine:
+        time_ns, status = mine[-1]
+        last = (f'the last is {status.get("state")!r} at t = {(time_ns - start_ns) / 1e9:g} s'
+                + (f' (error: {status["error"]})' if status.get('error') else ''))
+    else:
+        last = f'none of the {len(statuses)} recorded is for this episode'
+    return [Finding('finished', STATUS,
+                    f'the world never reported episode {episode} "finished" ({last}): the '
+                    f'record may end before the episode did')]
+
+
+def check_cue_maps(checked: int, max_diff: int, differing: int = 0,
+                   first_diff_s: float | None = None,
+                   cleaning: str = 'monotone') -> list[Finding]:
+    """The ``cue_maps`` check: the rebuilt cue equals every recorded /world/cue_map exactly.
+
+    Args:
+        checked: cue maps compared.
+        max_diff: max |map - rint(rebuilt cue)| over them (cue units).
+        differing: how many maps differ at all.
+        first_diff_s: t of the first map that differs (s), if any.
+        cleaning: world.cleaning; only :data:`DETERMINISTIC_CLEANING` modes are checked.
+    """
+    if cleaning not in DETERMINISTIC_CLEANING:
+        return []
+    if checked == 0:
+        return [Finding('cue_maps', '/world/cue_map',
+                        'no cue map recorded, so the cleaning record cannot be checked '
+                        'against the world\'s cue (the world publishes one at its start and '
+                        'at its end)')]
+    if max_diff == 0:
+        return []
+    first = '' if first_diff_s is None else f', the first at t = {first_diff_s:g} s'
+    return [Finding('cue_maps', '/world/cue_map',
+                    f'{differing or "some"} of {checked} recorded cue maps differ from the cue '
+                    f'rebuilt from the cleaning record by up to {max_diff} (cue units){first}: '
+                    f'a /world/cleaning event is missing or wrong')]
+
+
+def check_online_metrics(max_diff: float | None,
+                         first: tuple[str, float] | None = None) -> list[Finding]:
+    """The ``online_metrics`` check: the online samples equal the recomputation.
+
+    Args:
+        max_diff: max |online - recomputed| over the samples both have (inf for a NaN on one
+            side only; None when they share none).
+        first: (metric, t in s) of the first sample that differs.
+    """
+    if max_diff is None or max_diff == 0:
+        return []
+    where = '/metrics/*' if first is None else f'/metrics/{first[0]}'
+    size = ('a NaN on one side only' if math.isinf(max_diff) else
+            f'up to {max_diff:.3g}')
+    at = '' if first is None else f', the first at t = {first[1]:g} s'
+    return [Finding('online_metrics', where,
+                    f'the metrics node\'s samples differ from the recomputation by {size}{at}')]
+
+
+# --- a whole bag --------------------------------------------------------------------------
+
+def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]:
+    """Every check but ``announcement`` (which ``result`` implies) on a recomputed bag."""
+    setup = result.setup
+    start, period = setup.start_ns, setup.metrics.sample_period
+    findings = check_finished(bag.status, setup.episode, start)
+    findings += check_rows(result.rows, setup.duration, period)
+    findings += check_online(bag.metrics, start, setup.duration, period)
+    first_map = (None if result.cue_map_first_diff_ns is None
+                 else (result.cue_map_first_diff_ns - start) / 1e9)
+    findings += check_cue_maps(result.cue_maps_checked, result.cue_map_max_diff,
+                               result.cue_maps_differing, first_map, setup.world.cleaning)
+    first_sample = (None if result.online_first_diff is None else
+                    (result.online_first_diff[1], (result.online_first_diff[0] - start) / 1e9))
+    findings += check_online_metrics(result.online_max_diff, first_sample)
+    return findings
+
+
+def check_bag(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()
+              ) -> tuple[Recomputation | None, list[Finding]]:
+    """Recompute a bag's metrics and run every check.
+
+    Args:
+        snapshot_times: passed to :func:`~swarm_metrics.analysis.recompute`.
+
+    Returns:
+        (the recomputation, or None when the announcement check failed; the findings).
+
+    Raises:
+        BagError: the bag is announced but its messages contradict it (see ``recompute``).
+    """
+    findings = check_announcement(bag)
+    if findings:
+        return None, findings
+    result = recompute(bag, snapshot_times)
+    return result, check_recomputation(bag, result)
