@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -74,12 +75,26 @@ def announcement(config: SwarmConfig, poses: np.ndarray, start_ns: int,
             'parameters': config.to_dict()}
 
 
+def finished_status(config: SwarmConfig, steps: int, time_ns: int) -> dict:
+    """The world node's last /world/status of episode 0 (lockstep, nothing missed)."""
+    return {'episode': 0, 'state': 'finished', 'step': steps, 'steps': steps,
+            'time_ns': time_ns, 'mode': 'lockstep', 'misses': [0] * config.episode.population,
+            'absent': [], 'dropped': 0, 'duplicates': 0, 'error': None}
+
+
 def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 * 10**9,
                          all_poses: bool = False, map_period: float = 2.0,
-                         chunk_period: float = 5.0) -> list[dict]:
+                         chunk_period: float = 5.0,
+                         drop: Callable[[str, int], bool] | None = None,
+                         finished: bool = True) -> list[dict]:
     """Run one embedded episode and record it as the metrics node would; return its rows.
 
     The rows are the embedded runner's samples, also recorded on /metrics/* ('online').
+
+    Args:
+        drop: ``drop(topic, log_ns)`` true leaves that message out of the bag (a damaged
+            record: missing seconds, a gap, a lost cleaning event); the rows are unchanged.
+        finished: end with the world's ``finished`` /world/status, as the world node does.
     """
     world, controllers = start_episode(config)
     sample_ns = round(config.metrics.sample_period * 1e9)
@@ -88,14 +103,18 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
     rows = [sample(0.0, world.cue, world.initial_mean_cue, world.poses[:, :2], centre,
                    config.metrics)]
     with EpisodeBagWriter(path, chunk_period=chunk_period) as bag:
+        def write(topic: str, log_ns: int, data: bytes) -> None:
+            if drop is None or not drop(topic, log_ns):
+                bag.write(topic, log_ns, data)
+
         for topic, (msgtype, qos) in TOPICS.items():
             bag.add_topic(topic, msgtype, [qos])
         announced = announcement(config, world.poses, start_ns)
         bag.describe(announced)
-        bag.write('/episode', start_ns, string_cdr(json.dumps(announced)))
-        bag.write('/world/cue_map', start_ns, image_cdr(world.cue, start_ns))
+        write('/episode', start_ns, string_cdr(json.dumps(announced)))
+        write('/world/cue_map', start_ns, image_cdr(world.cue, start_ns))
         for name in METRICS:
-            bag.write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
+            write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
         for _ in range(config.steps()):
             readings = world.sense()
             command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
@@ -104,23 +123,26 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
             world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
             now = start_ns + world.time_ns
             if len(world.cleaned):
-                bag.write('/world/cleaning', now,
-                          pose_array_cdr(world.poses[world.cleaned], now))
+                write('/world/cleaning', now, pose_array_cdr(world.poses[world.cleaned], now))
             crossed = world.time_ns // sample_ns > before // sample_ns
             if crossed or all_poses:
-                bag.write('/world/poses', now, pose_array_cdr(world.poses, now))
+                write('/world/poses', now, pose_array_cdr(world.poses, now))
             if crossed:
                 k = world.time_ns // sample_ns
                 rows.append(sample(k * config.metrics.sample_period, world.cue,
                                    world.initial_mean_cue, world.poses[:, :2], centre,
                                    config.metrics))
                 for name in METRICS:
-                    bag.write(f'/metrics/{name}', start_ns + k * sample_ns,
-                              float_cdr(rows[-1][name]))
-                bag.write('/world/status', now, string_cdr(json.dumps(
+                    write(f'/metrics/{name}', start_ns + k * sample_ns,
+                          float_cdr(rows[-1][name]))
+                write('/world/status', now, string_cdr(json.dumps(
                     {'episode': 0, 'state': 'running', 'time_ns': now})))
             if world.time_ns // map_ns > before // map_ns:
-                bag.write('/world/cue_map', now, image_cdr(world.cue, now))
+                write('/world/cue_map', now, image_cdr(world.cue, now))
+        if finished:
+            end = start_ns + world.time_ns
+            write('/world/status', end, string_cdr(json.dumps(
+                finished_status(config, config.steps(), end))))
     return rows
 
 

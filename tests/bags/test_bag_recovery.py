@@ -64,12 +64,15 @@ def test_sigkilled_writer_loses_at_most_one_chunk(tmp_path, after_s):
 def test_analyze_recovers_a_crashed_bag(tmp_path, capsys):
     bag = tmp_path / 'episode_0' / 'bag'
     written = kill_writer_midstream(bag, 15 * 10**9)
-    assert cli.main(['analyze', str(bag)]) == 0
+    # recovered, but the episode never finished: incomplete, exit 1 (docs/bags.md)
+    assert cli.main(['analyze', str(bag)]) == 1
+    err = capsys.readouterr().err
+    assert 'was cut short' in err and 'fails the finished, samples' in err
+    assert not (tmp_path / 'episode_0' / 'episode.json').exists()
+    assert cli.main(['analyze', str(bag), '--allow-incomplete']) == 0
     out = capsys.readouterr().out
-    assert 'INCOMPLETE' in out and 'was cut short' in out and 'recovered' in out
+    assert 'INCOMPLETE' in out and 'recovered copy' in out
     record = json.loads((tmp_path / 'episode_0' / 'episode.json').read_text())
     assert record['recovered'] and not record['complete'] and record['seed'] == 1
+    assert 'finished' in [finding['check'] for finding in record['completeness']]
     assert written / 1e9 - CHUNK_PERIOD - 1.0 <= record['sim_time_covered'] <= written / 1e9
-    # a second analysis reuses the recovered copy
-    assert cli.main(['analyze', str(bag), '--out', str(tmp_path / 'again')]) == 0
-    assert 'recovered copy' in capsys.readouterr().out

@@ -10,7 +10,9 @@ import csv
 import json
 import os
 import platform
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -62,8 +64,20 @@ def episode_record(result: EpisodeResult, runner: str = 'embedded') -> dict:
     }
 
 
-def write_episode(result: EpisodeResult, out_dir: str | Path) -> Path:
-    """Write every output of one episode into ``out_dir`` (created if needed)."""
+def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = 'embedded',
+                  extra: dict[str, Any] | None = None, omit: Iterable[str] = ()) -> Path:
+    """Write every output of one episode into ``out_dir`` (created if needed).
+
+    Args:
+        result: the episode.
+        out_dir: the episode folder.
+        runner: recorded as episode.json's ``runner``.
+        extra: more episode.json fields (e.g. what a bag tells), added after the others.
+        omit: episode.json fields to leave out (e.g. timing a bag cannot give).
+
+    Returns:
+        ``out_dir``.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_metrics_csv(result.metrics, out / METRICS_FILE)
@@ -80,8 +94,12 @@ def write_episode(result: EpisodeResult, out_dir: str | Path) -> Path:
                  config.world.arena_side, config.mona.body_radius,
                  title=f'N = {config.episode.population}, v = {config.controller.speed * 100:g}'
                        f' cm/s, seed {config.episode.seed}, t = {result.metrics[-1]["t"]:g} s')
+    record = episode_record(result, runner)
+    for key in omit:
+        record.pop(key, None)
+    record.update(extra or {})
     temporary = out / (EPISODE_FILE + '.tmp')
-    temporary.write_text(json.dumps(episode_record(result), indent=2) + '\n')
+    temporary.write_text(json.dumps(record, indent=2) + '\n')
     os.replace(temporary, out / EPISODE_FILE)
     return out
 

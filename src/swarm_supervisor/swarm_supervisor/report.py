@@ -14,7 +14,7 @@ import json
 import platform
 import subprocess
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ import pandas as pd
 
 from swarm_metrics import anova as anova_tables
 from swarm_metrics import figures
+from swarm_metrics.completeness import Finding
 from swarm_supervisor import __version__, outputs, study
 
 REPORT_FILE = 'report.md'
@@ -49,13 +50,17 @@ def _records(folders: Sequence[Path]) -> list[dict[str, Any]]:
 
 def analyse(out_dir: str | Path, folders: Sequence[Path], *,
             table: pd.DataFrame | None = None, sources: Sequence[str] = (),
-            parameters_file: str | None = None) -> Path:
+            parameters_file: str | None = None,
+            incomplete: Mapping[Path, Sequence[Finding]] | None = None) -> Path:
     """Write every result of a study of the episodes in ``folders`` into ``out_dir``.
 
     Args:
         table: the tidy table of ``folders`` if already built (else read from them).
         sources: where the episodes came from, for the report (default: ``out_dir``).
         parameters_file: the parameter file saved in ``out_dir`` that produced them, if any.
+        incomplete: the folders whose record is incomplete and what each lacks
+            (:func:`swarm_supervisor.study.incomplete_episodes`; default: what their
+            episode.json records), listed in the report.
 
     Returns:
         The path of report.md.
@@ -67,6 +72,9 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
         table = study.tidy_table(folders)
         study.write_table(table, out / study.TABLE_FILE)
     records = _records(folders)
+    if incomplete is None:
+        incomplete = {folder: findings for folder, record in zip(folders, records)
+                      if (findings := study.recorded_findings(record))}
     drawn = make_figures(out, table, folders, records)
     tables = {}
     for response, name in ANOVA_FILES.items():
@@ -74,7 +82,7 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
         anova_tables.write_anova(tables[response], out / name)
     path = out / REPORT_FILE
     path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
-                           parameters_file=parameters_file))
+                           parameters_file=parameters_file, incomplete=incomplete))
     return path
 
 
@@ -354,8 +362,9 @@ def _timing(records: Sequence[dict[str, Any]], folders: Sequence[Path],
 def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
            records: Sequence[dict[str, Any]], drawn: Sequence[Figure],
            tables: dict[str, pd.DataFrame], *, sources: Sequence[str] = (),
-           parameters_file: str | None = None) -> str:
-    """The text of report.md."""
+           parameters_file: str | None = None,
+           incomplete: Mapping[Path, Sequence[Finding]] | None = None) -> str:
+    """The text of report.md (``incomplete``: see :func:`analyse`)."""
     levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
     ends = table.groupby(list(study.KEYS))['t'].max()
     runners = sorted({record.get('runner', 'unknown') for record in records})
@@ -381,11 +390,13 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     if differ:
         lines.append(f'- **warning**: these parameters differ between episodes: '
                      f'{", ".join(differ)}')
-    incomplete = [folder.name for folder, record in zip(folders, records)
-                  if record.get('complete') is False]
     if incomplete:
-        lines.append(f'- **warning**: these episodes ended early (their bags cover less than the '
-                     f'episode length): {", ".join(incomplete)}')
+        lines.append(f'- **warning**: {len(incomplete)} of {len(folders)} episodes are '
+                     f'incomplete (analysed anyway, `--allow-incomplete`); what each record '
+                     f'lacks:')
+        for folder, findings in incomplete.items():
+            lines.append(f'  - `{Path(folder).name}`: '
+                         + '; '.join(str(finding) for finding in findings))
     lines.append(f'- tidy table of every sample: [`{study.TABLE_FILE}`]({study.TABLE_FILE}) '
                  f'({len(table)} rows)')
     lines += ['', '## What the results show', '',

@@ -30,6 +30,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from mona_controller.schema import ParameterError
+from swarm_metrics.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS
 from swarm_supervisor import outputs
 from swarm_supervisor.config import StudyParams, SwarmConfig, write_ros_yaml
@@ -296,6 +297,62 @@ def find_episodes(paths: Iterable[str | Path]) -> list[Path]:
         candidates += [p.parent for p in path.rglob(outputs.EPISODE_FILE)]
         found.update(p for p in candidates if outputs.episode_complete(p))
     return sorted(found)
+
+
+def recorded_findings(record: dict[str, Any]) -> list[Finding]:
+    """What an episode.json says its record lacks: the completeness findings of
+    ``mona-swarm analyze``, or for a record written before those existed, what its
+    ``complete``, ``cue_maps`` and ``online_metrics`` fields imply (embedded runs: none).
+
+    Raises:
+        ValueError: the ``completeness`` field is not a list of findings.
+    """
+    if 'completeness' in record:
+        if not isinstance(record['completeness'], list):
+            raise ValueError(f'completeness is not a list: {record["completeness"]!r}')
+        return [Finding.from_dict(item) for item in record['completeness']]
+    findings = []
+    if record.get('complete') is False:
+        findings.append(Finding('samples', outputs.EPISODE_FILE,
+                                f'the bag covers {record.get("sim_time_covered")} s of the '
+                                f'{record.get("duration")} s episode'))
+    for check in ('cue_maps', 'online_metrics'):
+        worst = (record.get(check) or {}).get('max_abs_diff')
+        if isinstance(worst, (int, float)) and worst != 0:
+            findings.append(Finding(check, outputs.EPISODE_FILE,
+                                    f'{check}.max_abs_diff is {worst}, not 0'))
+    return findings
+
+
+def episode_findings(folder: Path) -> list[Finding]:
+    """Is an episode folder's record complete? Its recorded findings
+    (:func:`recorded_findings`) plus the ``samples`` check of its metrics.csv (the samples
+    must run from t = 0 to the duration without a gap), without repeats."""
+    try:
+        record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+        parameters = record.get('parameters', {})
+        duration = float(record.get('duration', parameters['episode']['duration']))
+        period = float(parameters['metrics']['sample_period'])
+        times = outputs.read_metrics_csv(folder / outputs.METRICS_FILE)['t']
+        checked = check_rows([{'t': t} for t in times], duration, period, outputs.METRICS_FILE)
+        findings = recorded_findings(record)
+    except (OSError, ValueError, TypeError, KeyError, AttributeError) as error:
+        raise StudyError(f'{folder}: cannot check that its record is complete ({error})') \
+            from None
+    for finding in checked:
+        if not any((f.check, f.detail) == (finding.check, finding.detail) for f in findings):
+            findings.append(finding)
+    return findings
+
+
+def incomplete_episodes(folders: Iterable[Path]) -> dict[Path, list[Finding]]:
+    """The folders whose record is incomplete, with what each lacks (:func:`episode_findings`).
+
+    Raises:
+        StudyError: a folder's episode.json or metrics.csv cannot be read.
+    """
+    found = {Path(folder): episode_findings(Path(folder)) for folder in folders}
+    return {folder: findings for folder, findings in found.items() if findings}
 
 
 def episode_key(folder: Path) -> dict[str, Any]:

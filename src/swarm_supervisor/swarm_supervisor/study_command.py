@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import time
 from pathlib import Path
 
 import pandas as pd
 
+from swarm_metrics.completeness import describe
 from swarm_supervisor import study
 from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import load_config
@@ -37,26 +39,25 @@ def register(subparsers) -> None:
     parser.add_argument('--from-episodes', type=Path, nargs='+', metavar='DIR',
                         help='analyse the episode folders (metrics.csv + episode.json) at or '
                              'under these folders; run nothing')
+    parser.add_argument('--allow-incomplete', action='store_true',
+                        help='with --from-episodes: analyse episodes whose record is '
+                             'incomplete (a gap, no finished status, ...) anyway; report.md '
+                             'lists them and what they lack')
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run (or collect) the episodes, then write the figures, tables and report."""
+    """Run (or collect) the episodes, then write the figures, tables and report.
+
+    Returns:
+        0; 1 when --from-episodes finds an incomplete episode (without --allow-incomplete).
+    """
     started = time.perf_counter()
     if args.from_episodes:
-        unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
-                                           ('--jobs', args.jobs)) if value]
-        if unused:
-            raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
-                                   '--from-episodes, which runs nothing')
-        folders = study.find_episodes(args.from_episodes)
-        if not folders:
-            raise study.StudyError('no episode folders (metrics.csv + episode.json) under '
-                                   + ', '.join(map(str, args.from_episodes)))
-        report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes])
-        print(f'{report}: {len(folders)} episodes analysed in '
-              f'{time.perf_counter() - started:.1f} s')
-        return 0
+        return from_episodes(args, started)
+    if args.allow_incomplete:
+        raise study.StudyError('--allow-incomplete applies to --from-episodes only (the '
+                               'episodes a study runs are complete)')
     config = load_config(args.config)
     if args.quick:
         config = dataclasses.replace(config, study=study.quick_study(config.study))
@@ -67,4 +68,31 @@ def run(args: argparse.Namespace) -> int:
     last = study.read_invocations(args.out)[-1]
     print(f'{report}: {last["episodes"]} episodes ({last["ran"]} run, {last["kept"]} kept) '
           f'in {time.perf_counter() - started:.1f} s')
+    return 0
+
+
+def from_episodes(args: argparse.Namespace, started: float) -> int:
+    """``--from-episodes``: check and analyse existing episode folders; run nothing."""
+    unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
+                                       ('--jobs', args.jobs)) if value]
+    if unused:
+        raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
+                               '--from-episodes, which runs nothing')
+    folders = study.find_episodes(args.from_episodes)
+    if not folders:
+        raise study.StudyError('no episode folders (metrics.csv + episode.json) under '
+                               + ', '.join(map(str, args.from_episodes)))
+    incomplete = study.incomplete_episodes(folders)
+    if incomplete and not args.allow_incomplete:
+        listing = '\n'.join(f'  {folder}:\n{describe(findings, "    ")}'
+                            for folder, findings in incomplete.items())
+        print(f'mona-swarm study: error: {len(incomplete)} of {len(folders)} episodes are '
+              f'incomplete; --allow-incomplete analyses them anyway:\n{listing}',
+              file=sys.stderr)
+        return 1
+    report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
+                     incomplete=incomplete)
+    flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''
+    print(f'{report}: {len(folders)} episodes analysed{flagged} in '
+          f'{time.perf_counter() - started:.1f} s')
     return 0
