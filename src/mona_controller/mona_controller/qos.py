@@ -1,4 +1,4 @@
-"""The topic contract in code: topic names and their named QoS profiles (docs/interfaces.md).
+"""The topic contract's QoS: a named profile per topic (docs/interfaces.md).
 
 Every node takes its names and QoS from here, so publisher and subscriber always match. Per
 robot topics are relative names, resolved in the robot's namespace ``/mona_<i>``.
@@ -8,6 +8,12 @@ from __future__ import annotations
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+# The names are the contract's; re-exported so a node needs one import for name and QoS.
+from mona_controller.contract import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
+                                      CUE_MAP, EPISODE, GROUND, MARKERS, POSES, PROXIMITY,
+                                      RECORDERS, STATUS, WORLD_FRAME, base_frame,
+                                      robot_namespace, robot_topic)
 
 
 def _profile(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
@@ -35,6 +41,9 @@ MAP_QOS = LATCHED_QOS
 STATUS_QOS = LATCHED_QOS
 EPISODE_QOS = LATCHED_QOS
 MARKERS_QOS = _profile(1)
+#: Recorder reports: each recorder's latest kept for late joiners; several recorders (and a
+#: burst of progress reports) must not push a "recording" out of a subscriber's history.
+RECORDERS_QOS = _profile(10, latched=True)
 
 #: No default QoS event handlers for the per-robot topics. rclpy gives every publisher and
 #: subscription two (incompatible QoS, incompatible type) and the executor visits each of
@@ -42,37 +51,3 @@ MARKERS_QOS = _profile(1)
 #: round. The QoS is fixed here for both ends, and the world reports robots that never connect.
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 QUIET_SUBSCRIPTION = SubscriptionEventCallbacks(use_default_callbacks=False)
-
-# Per robot, relative to the namespace /mona_<i>.
-GROUND = 'ground'
-PROXIMITY = 'proximity'
-CMD_VEL = 'cmd_vel'
-CLEANER = 'cleaner'
-
-# World and supervisor (absolute).
-CLOCK = '/clock'
-POSES = '/world/poses'
-CLEANING = '/world/cleaning'
-CUE_MAP = '/world/cue_map'
-CUE_GRID = '/world/cue_grid'
-MARKERS = '/world/markers'
-STATUS = '/world/status'
-EPISODE = '/episode'
-
-#: The world frame (REP 103: origin at an arena corner, x and y along the walls).
-WORLD_FRAME = 'world'
-
-
-def robot_namespace(robot_id: int) -> str:
-    """The namespace of robot ``robot_id`` (ROS names must not start with a digit)."""
-    return f'/mona_{robot_id}'
-
-
-def robot_topic(robot_id: int, name: str) -> str:
-    """The absolute name of a per-robot topic, e.g. ``/mona_3/cmd_vel``."""
-    return f'{robot_namespace(robot_id)}/{name}'
-
-
-def base_frame(robot_id: int) -> str:
-    """The body frame of robot ``robot_id``."""
-    return f'mona_{robot_id}/base_link'

@@ -1,0 +1,167 @@
+"""The topic contract as plain Python: names, world states and the recorder protocol.
+
+ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use
+(:mod:`mona_controller.qos` adds the QoS profiles and re-exports the names). The page that
+explains it is docs/interfaces.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+from collections.abc import Iterable
+
+# Per robot, relative to the namespace /mona_<i>.
+GROUND = 'ground'
+PROXIMITY = 'proximity'
+CMD_VEL = 'cmd_vel'
+CLEANER = 'cleaner'
+
+# World, supervisor and recorders (absolute).
+CLOCK = '/clock'
+POSES = '/world/poses'
+CLEANING = '/world/cleaning'
+CUE_MAP = '/world/cue_map'
+CUE_GRID = '/world/cue_grid'
+MARKERS = '/world/markers'
+STATUS = '/world/status'
+EPISODE = '/episode'
+RECORDERS = '/recorders'
+METRICS_PREFIX = '/metrics/'
+
+#: The world frame (REP 103: origin at an arena corner, x and y along the walls).
+WORLD_FRAME = 'world'
+
+
+def robot_namespace(robot_id: int) -> str:
+    """The namespace of robot ``robot_id`` (ROS names must not start with a digit)."""
+    return f'/mona_{robot_id}'
+
+
+def robot_topic(robot_id: int, name: str) -> str:
+    """The absolute name of a per-robot topic, e.g. ``/mona_3/cmd_vel``."""
+    return f'{robot_namespace(robot_id)}/{name}'
+
+
+def base_frame(robot_id: int) -> str:
+    """The body frame of robot ``robot_id``."""
+    return f'mona_{robot_id}/base_link'
+
+
+class WorldState(str, enum.Enum):
+    """The ``state`` of /world/status."""
+
+    WAITING = 'waiting'  #: no episode, or the episode waits for its controllers and recorders
+    RUNNING = 'running'
+    FINISHED = 'finished'
+    FAILED = 'failed'
+
+
+class RecorderState(str, enum.Enum):
+    """What a recorder says of an episode on /recorders."""
+
+    RECORDING = 'recording'  #: its record of the episode is open and listening
+    CLOSED = 'closed'  #: its record is closed (``complete`` says whether it has everything)
+
+
+class ContractError(ValueError):
+    """A message that does not follow docs/interfaces.md."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RecorderReport:
+    """One recorder's word on one episode (/recorders, std_msgs/String JSON).
+
+    A recorder (the metrics node) says ``recording`` once the episode's bag is open and its
+    subscriptions to the world's topics are matched; the world starts step 0 only then. While
+    recording it repeats the report with ``recorded_ns``, the sim time up to which its record
+    is whole, so the world never runs more than ``recorder_lag`` ahead of it. ``closed`` ends
+    the episode's record, with ``complete`` and the ``problems`` found if it is not.
+    """
+
+    recorder: str  #: the recorder's node name, as the world's ``recorders`` parameter lists it
+    episode: int
+    start_ns: int  #: the announced start of the episode (tells two runs' episode k apart)
+    state: RecorderState
+    recorded_ns: int = 0  #: sim time up to which the record is whole
+    complete: bool = False  #: with CLOSED: the record holds the whole episode
+    problems: tuple[str, ...] = ()  #: with CLOSED: what is missing, if anything
+    path: str = ''  #: where the record is (the bag folder)
+
+    def to_json(self) -> str:
+        """The message text."""
+        document = dataclasses.asdict(self)
+        document['state'] = self.state.value
+        document['problems'] = list(self.problems)
+        return json.dumps(document)
+
+    @classmethod
+    def from_json(cls, text: str) -> RecorderReport:
+        """Parse a /recorders message.
+
+        Raises:
+            ContractError: naming what is missing or of the wrong type.
+        """
+        try:
+            document = json.loads(text)
+            report = cls(recorder=str(document['recorder']), episode=int(document['episode']),
+                         start_ns=int(document['start_ns']),
+                         state=RecorderState(document['state']),
+                         recorded_ns=int(document.get('recorded_ns', 0)),
+                         complete=bool(document.get('complete', False)),
+                         problems=tuple(str(p) for p in document.get('problems', ())),
+                         path=str(document.get('path', '')))
+        except KeyError as error:
+            raise ContractError(f'a /recorders report without {error.args[0]!r}: '
+                                f'{text[:200]}') from None
+        except (ValueError, TypeError, AttributeError) as error:
+            raise ContractError(f'a malformed /recorders report ({error}): {text[:200]}') \
+                from None
+        return report
+
+
+def recorder_names(text: str) -> tuple[str, ...]:
+    """The recorder names of a comma-separated parameter ('' = none)."""
+    return tuple(name.strip() for name in text.split(',') if name.strip())
+
+
+class RecorderBook:
+    """The latest report of each expected recorder, and what they say of an episode."""
+
+    def __init__(self, names: Iterable[str]) -> None:
+        self.names = tuple(names)
+        self.latest: dict[str, RecorderReport] = {}
+
+    def update(self, report: RecorderReport) -> bool:
+        """Keep ``report`` if it is from an expected recorder; True if kept."""
+        if report.recorder not in self.names:
+            return False
+        self.latest[report.recorder] = report
+        return True
+
+    def _of(self, name: str, episode: int, start_ns: int) -> RecorderReport | None:
+        report = self.latest.get(name)
+        if report is None or (report.episode, report.start_ns) != (episode, start_ns):
+            return None
+        return report
+
+    def not_recording(self, episode: int, start_ns: int) -> list[str]:
+        """The recorders that have not said they record this episode (or closed it)."""
+        return [name for name in self.names if self._of(name, episode, start_ns) is None]
+
+    def behind(self, episode: int, start_ns: int, time_ns: int) -> list[str]:
+        """The recorders whose record of this episode does not reach ``time_ns`` yet."""
+        behind = []
+        for name in self.names:
+            report = self._of(name, episode, start_ns)
+            if report is None or (report.state is RecorderState.RECORDING
+                                  and report.recorded_ns < time_ns):
+                behind.append(name)
+        return behind
+
+    def closed(self, episode: int, start_ns: int) -> dict[str, RecorderReport]:
+        """The recorders that closed this episode's record, by name."""
+        reports = {name: self._of(name, episode, start_ns) for name in self.names}
+        return {name: report for name, report in reports.items()
+                if report is not None and report.state is RecorderState.CLOSED}

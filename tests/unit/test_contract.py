@@ -1,0 +1,61 @@
+"""The contract as plain Python: recorder reports round-trip, and the book the world and the
+supervisor keep says who records, who lags and who closed."""
+
+from __future__ import annotations
+
+import pytest
+
+from mona_controller import contract
+from mona_controller.contract import (ContractError, RecorderBook, RecorderReport,
+                                      RecorderState, recorder_names)
+
+RECORDING, CLOSED = RecorderState.RECORDING, RecorderState.CLOSED
+
+
+def test_report_round_trips_through_json():
+    report = RecorderReport('metrics', 3, 7_000, CLOSED, 9_000, False, ('2 of 61 samples',),
+                            '/out/episode_3/bag')
+    assert RecorderReport.from_json(report.to_json()) == report
+
+
+@pytest.mark.parametrize('text, named', [
+    ('{"episode": 0, "start_ns": 0, "state": "recording"}', "'recorder'"),
+    ('{"recorder": "m", "episode": 0, "start_ns": 0, "state": "asleep"}', 'asleep'),
+    ('{"recorder": "m", "episode": "x", "start_ns": 0, "state": "closed"}', 'x'),
+    ('not json', 'not json'),
+])
+def test_malformed_reports_are_named(text, named):
+    with pytest.raises(ContractError, match=named):
+        RecorderReport.from_json(text)
+
+
+def test_recorder_names_of_a_parameter():
+    assert recorder_names('') == ()
+    assert recorder_names(' metrics, video ,') == ('metrics', 'video')
+
+
+def test_book_follows_each_recorder_per_episode():
+    book = RecorderBook(['metrics', 'video'])
+    assert book.not_recording(0, 100) == ['metrics', 'video']
+    assert not book.update(RecorderReport('stranger', 0, 100, RECORDING))
+    book.update(RecorderReport('metrics', 0, 100, RECORDING, 100))
+    assert book.not_recording(0, 100) == ['video']
+    # The same episode number of another run (another start) does not count.
+    book.update(RecorderReport('video', 0, 999, RECORDING, 999))
+    assert book.not_recording(0, 100) == ['video']
+    book.update(RecorderReport('video', 0, 100, RECORDING, 5_000))
+    assert book.not_recording(0, 100) == []
+    assert book.behind(0, 100, 1_000) == ['metrics']
+    book.update(RecorderReport('metrics', 0, 100, RECORDING, 1_000))
+    assert book.behind(0, 100, 1_000) == []
+    book.update(RecorderReport('metrics', 0, 100, CLOSED, 1_000, True))
+    assert book.behind(0, 100, 10**12) == ['video']  # a closed record holds nobody back
+    assert list(book.closed(0, 100)) == ['metrics']
+    assert book.closed(1, 100) == {}
+
+
+def test_topic_names_are_absolute_or_per_robot():
+    assert contract.robot_topic(12, contract.CMD_VEL) == '/mona_12/cmd_vel'
+    assert contract.base_frame(0) == 'mona_0/base_link'
+    assert all(name.startswith('/') for name in (contract.POSES, contract.RECORDERS,
+                                                 contract.EPISODE, contract.STATUS))
