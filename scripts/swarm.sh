@@ -4,8 +4,9 @@
 #
 #   scripts/swarm.sh --population 10 --episodes 2 --duration 60 --seed 3 --out results/ros
 #
-# Exit status: 0 if every node succeeded; 1 if a node failed (the message names it); 2 for bad
-# options or parameters; 124 on --timeout; 130 / 143 when stopped by SIGINT / SIGTERM.
+# Exit status: 0 if every node succeeded and ended by itself, which includes every episode's bag
+# closed and complete (the supervisor checks the metrics node's report); 1 if a node failed or
+# had to be stopped (the message names it); 2 for bad options or parameters; 124 on --timeout; 130 / 143 when stopped by SIGINT / SIGTERM.
 # See docs/running.md for the output layout, domain ids and the DDS profile.
 set -uo pipefail
 
@@ -25,6 +26,8 @@ usage: scripts/swarm.sh [options]
   --config YAML               parameter file (default ros_ws/config/mona_swarm.yaml)
   --controllers-per-process K robots per controller process, one node each (default 1)
   --timeout S                 wall-clock limit for the whole run, 0 = none (default 0)
+  --start-timeout S           how long the world waits for every controller and the metrics
+                              node to be ready for an episode (default max(60, 3 N) s)
   -p NAME:=VALUE              extra ROS parameter override for every node (repeatable)
 Environment: SWARM_DOMAIN_ID forces the ROS domain id; SWARM_FASTDDS_PROFILE another profile.
 EOF
@@ -35,7 +38,7 @@ say() { echo "$PROG: $*" >&2; }
 
 # --- options -----------------------------------------------------------------------------------
 population='' speed='' episodes=1 duration='' seed='' out='' mode=lockstep
-config="$REPO/ros_ws/config/mona_swarm.yaml" per_process=1 timeout=0
+config="$REPO/ros_ws/config/mona_swarm.yaml" per_process=1 timeout=0 start_timeout=''
 extra=()
 while (($#)); do
   case $1 in
@@ -49,6 +52,7 @@ while (($#)); do
     --config) config=${2-}; shift ;;
     --controllers-per-process) per_process=${2-}; shift ;;
     --timeout) timeout=${2-}; shift ;;
+    --start-timeout) start_timeout=${2-}; shift ;;
     -p) extra+=(-p "${2-}"); shift ;;
     -h|--help) usage; exit 0 ;;
     *) usage >&2; die "unknown option '$1'" ;;
@@ -64,6 +68,7 @@ is_number() { [[ $1 =~ ^[0-9]+([.][0-9]*)?([eE][-+]?[0-9]+)?$ ]]; }
 is_uint "$episodes" && ((episodes >= 1)) || die "--episodes '$episodes': expected 1 or more"
 is_uint "$per_process" && ((per_process >= 1)) || die "--controllers-per-process '$per_process': expected 1 or more"
 is_uint "$timeout" || die "--timeout '$timeout': expected whole seconds"
+[[ -z $start_timeout ]] || { is_uint "$start_timeout" && ((start_timeout >= 1)); } || die "--start-timeout '$start_timeout': expected whole seconds, 1 or more"
 [[ $mode == lockstep || $mode == realtime ]] || die "--mode '$mode': expected lockstep or realtime"
 [[ -f $config ]] || die "--config '$config': no such file"
 config=$(cd "$(dirname "$config")" && pwd)/$(basename "$config")
@@ -276,9 +281,9 @@ ros_args=(--ros-args --params-file "$config" "${overrides[@]}")
 say "domain $domain, $population robots, $episodes episode(s), $mode, output $out"
 
 # Starting many Python processes takes a while on a small machine: scale the world's patience.
-start_timeout=$((population * 3 > 60 ? population * 3 : 60))
+start_timeout=${start_timeout:-$((population * 3 > 60 ? population * 3 : 60))}
 start world "$world_exe" "${ros_args[@]}" -p "mode:=$mode" -p "output_dir:=$out" \
-  -p "start_timeout:=$start_timeout.0" -p wait_for_recorders:=1
+  -p "start_timeout:=$start_timeout.0" -p recorders:=metrics
 start metrics "$metrics_exe" "${ros_args[@]}" -p "output_dir:=$out"
 for ((first = 0; first < population; first += per_process)); do
   last=$((first + per_process - 1)); ((last < population)) || last=$((population - 1))
@@ -286,7 +291,7 @@ for ((first = 0; first < population; first += per_process)); do
   start "controller_$robots" "$controller_exe" --robots "$robots" "${ros_args[@]}"
 done
 start supervisor "$supervisor_exe" "${ros_args[@]}" -p "episodes:=$episodes" \
-  -p "output_dir:=$out"
+  -p "output_dir:=$out" -p recorders:=metrics
 supervisor=$((${#pids[@]} - 1))
 
 # Wait for the supervisor. The run cannot go on without the world or the metrics node; a
@@ -339,11 +344,17 @@ for i in "${!pids[@]}"; do
   if [[ -n ${forced[$i]-} ]]; then
     say "FAILED $what: did not stop on SIGINT, ended by ${forced[$i]}; $log"; ((failures++))
   elif [[ -n ${stopped[$i]-} ]]; then
-    # Stopped by us: fine after an interrupt or another node's failure; after a finished run
-    # it should have ended on the shutdown announcement.
-    [[ $outcome == finished ]] && say "warning: $what did not end after the shutdown; stopped"
+    # Stopped by us: fine after an interrupt or another node's failure. After a finished run
+    # it should have ended by itself on the shutdown announcement: one that had to be stopped
+    # may not have closed its outputs, so the run is not reported complete.
+    if [[ $outcome == finished ]]; then
+      say "FAILED $what: did not end by itself after the shutdown; stopped by SIGINT; $log"
+      ((failures++))
+    fi
   elif [[ $s != 0 ]]; then
     say "FAILED $what: $(describe "$s"); $log"; ((failures++))
+    reason=$(grep -E '^\[(ERROR|FATAL)\]' "$out/logs/${names[$i]}.log" 2>/dev/null | tail -n 1)
+    [[ -n $reason ]] && say "  its last error: ${reason#*]: }"
   fi
 done
 case $outcome in

@@ -9,6 +9,8 @@ the test (the machinery is in tests/harness.py).
   logging to ``tmp_path/<name>.log``; at teardown every group gets SIGINT, then SIGTERM, then
   SIGKILL, and Fast DDS shared-memory files created meanwhile and used by no process are
   removed.
+- ``busy_cores``: every core kept busy by spinning processes for the test's duration, as on a
+  shared CI machine (races that a quiet machine hides show up there).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import harness
 from harness import Processes, private_domain, ros_environment
 
 
@@ -41,3 +44,10 @@ def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
         yield group
     finally:
         group.stop_all()
+
+
+@pytest.fixture
+def busy_cores() -> Iterator[None]:
+    """Every core busy for the duration of the test (bounded, stopped afterwards)."""
+    with harness.busy_cores():
+        yield

@@ -186,3 +186,21 @@ class Processes:
             stop_group(process)
         domain = int(self.env['ROS_DOMAIN_ID'])
         return remove_shm_leftovers(domain, self.seen_shm)
+
+
+@contextlib.contextmanager
+def busy_cores(count: int | None = None, limit: float = 900.0) -> Iterator[None]:
+    """Keep ``count`` cores (default: all) busy with spinning processes during the block.
+
+    The loops end with the block, and by themselves after ``limit`` seconds whatever happens
+    to the test, so a crashed run cannot leave a machine loaded.
+    """
+    spin = f'import time\nend = time.monotonic() + {limit}\nwhile time.monotonic() < end: pass'
+    loops = [subprocess.Popen([sys.executable, '-c', spin])
+             for _ in range(count or os.cpu_count() or 1)]
+    try:
+        yield
+    finally:
+        for loop in loops:
+            loop.kill()
+            loop.wait()

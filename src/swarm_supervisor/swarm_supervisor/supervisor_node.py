@@ -2,7 +2,8 @@
 
 For episode k it derives ``seed_k = episode.seed + k``, places the robots from that seed
 (:mod:`swarm_supervisor.placement`, as the embedded runner does), announces the episode on
-``/episode`` and waits until the world reports it finished. After the last episode it
+``/episode`` and waits until the world reports it finished and every expected recorder
+(``recorders``) reports its record of it closed and complete. After the last episode it
 announces the shutdown, which ends the world and every controller node.
 
 Usable from Python like nav2's simple commander::
@@ -32,6 +33,8 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from mona_controller import qos
+from mona_controller.contract import (ContractError, RecorderBook, RecorderReport, WorldState,
+                                      recorder_names)
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
@@ -58,6 +61,12 @@ class SupervisorParams:
                                  doc='how long to wait for the world node to appear')
     episode_timeout: float = param(3600.0, unit='s (wall)', low=0.1, high=1e7,
                                    doc='how long one episode may take before the run fails')
+    recorders: str = param('', doc="comma-separated node names of the recorders (the metrics "
+                                   "node: 'metrics') whose complete record of each episode "
+                                   "the run needs ('' = none)")
+    record_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
+                                  doc='how long to wait, after the world finished an episode, '
+                                      'for every recorder to close its record')
 
     def __post_init__(self) -> None:
         validate(self)
@@ -77,14 +86,22 @@ class Supervisor(Node):
         self.status: dict = {}
         self.announcement: dict = {}
         self.records: list[dict] = []
+        self.recorders = RecorderBook(recorder_names(self.options.recorders))
         self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
         self.create_subscription(String, qos.STATUS, self._on_status, qos.STATUS_QOS)
+        self.create_subscription(String, qos.RECORDERS, self._on_recorder, qos.RECORDERS_QOS)
 
     def _on_status(self, msg: String) -> None:
         try:
             self.status = json.loads(msg.data)
         except ValueError:
             self.get_logger().warning(f'unreadable /world/status: {msg.data[:200]}')
+
+    def _on_recorder(self, msg: String) -> None:
+        try:
+            self.recorders.update(RecorderReport.from_json(msg.data))
+        except ContractError as error:
+            self.get_logger().warning(str(error), throttle_duration_sec=5.0)
 
     def _spin_until(self, condition, timeout: float, what: str, *,
                     watch_world: bool = False) -> None:
@@ -150,21 +167,55 @@ class Supervisor(Node):
 
         def over() -> bool:
             return (self.status.get('episode') == episode
-                    and self.status.get('state') in ('finished', 'failed'))
+                    and self.status.get('state') in (WorldState.FINISHED, WorldState.FAILED))
 
         self._spin_until(over, timeout or self.options.episode_timeout,
                          f'episode {episode} to finish', watch_world=True)
-        if self.status['state'] == 'failed':
+        if self.status['state'] == WorldState.FAILED:
             raise SupervisorError(f'the world failed episode {episode}: '
                                   f'{self.status.get("error")}')
         final = dict(self.status)
+        records = self._wait_for_records(episode)
         self.records.append({key: self.announcement[key] for key in
                              ('episode', 'seed', 'population', 'duration', 'start_ns')}
                             | {'end_ns': final['time_ns'], 'steps': final['step'],
-                               'misses': sum(final['misses']), 'dropped': final['dropped']})
+                               'misses': sum(final['misses']), 'dropped': final['dropped'],
+                               'records': records})
         self.get_logger().info(f'episode {episode} finished: {final["step"]} steps, misses '
                                f'{sum(final["misses"])}, dropped {final["dropped"]}')
         return final
+
+    def _wait_for_records(self, episode: int) -> dict[str, dict]:
+        """Wait until every expected recorder closed its record of ``episode``; return
+        {recorder: {path, complete, problems}}.
+
+        Raises:
+            SupervisorError: a recorder did not close it in ``record_timeout``, or its record
+                is incomplete (the message says what it lacks).
+        """
+        start_ns = self.announcement['start_ns']
+
+        def closed() -> bool:
+            return len(self.recorders.closed(episode, start_ns)) == len(self.recorders.names)
+
+        try:
+            self._spin_until(closed, self.options.record_timeout,
+                             f'the recorders to close episode {episode}')
+        except SupervisorError:
+            missing = sorted(set(self.recorders.names)
+                             - set(self.recorders.closed(episode, start_ns)))
+            raise SupervisorError(f'episode {episode}: the recorder(s) {", ".join(missing)} '
+                                  f'did not close their record within '
+                                  f'{self.options.record_timeout:g} s of the episode\'s end '
+                                  f'on {qos.RECORDERS}') from None
+        reports = self.recorders.closed(episode, start_ns)
+        incomplete = [f'{name} ({report.path}): {"; ".join(report.problems)}'
+                      for name, report in reports.items() if not report.complete]
+        if incomplete:
+            raise SupervisorError(f'episode {episode}: incomplete record from '
+                                  + ', '.join(incomplete))
+        return {name: {'path': report.path, 'complete': report.complete,
+                       'problems': list(report.problems)} for name, report in reports.items()}
 
     def shutdown_run(self) -> None:
         """Announce the end of the run; every node exits."""

@@ -41,6 +41,8 @@ from std_msgs.msg import Bool, String
 from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
+from mona_controller.contract import (ContractError, RecorderBook, RecorderReport, WorldState,
+                                      recorder_names)
 from mona_controller.messages import (PoseArrayFiller, cue_grid, cue_image, fill_readings,
                                       ground_image, proximity_scan, robot_markers, set_stamp,
                                       stamp_to_ns)
@@ -54,6 +56,8 @@ from swarm_world.world import World
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.
 RESEND_PERIOD = 0.2
+#: Wall seconds between looks at a recorder that holds the world back.
+HOLD_POLL = 0.02
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,12 +71,19 @@ class WorldNodeParams:
     absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
                               doc='consecutive misses after which a robot is absent and no '
                                   'longer waited for (it rejoins when it answers)')
-    wait_for_recorders: int = param(0, unit='subscribers', low=0, high=1000,
-                                    doc='subscribers of /world/poses and /world/cleaning (the '
-                                        'metrics node) to wait for before an episode starts; '
-                                        'their topics keep no history for late joiners')
+    recorders: str = param('', doc="comma-separated node names of the recorders (the metrics "
+                                   "node: 'metrics') that must say they record an episode "
+                                   "before its step 0 ('' = none)")
+    recorder_lag: float = param(10.0, unit='s (sim)', low=0.0, high=1e7,
+                                doc='lockstep: never step more than this ahead of the slowest '
+                                    "recorder's whole record (0 = do not wait for recorders "
+                                    'while running)')
+    recorder_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
+                                    doc='how long a running episode waits for a recorder that '
+                                        'fell behind before the episode fails')
     start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
-                                 doc='how long to wait for every controller to connect')
+                                 doc='how long to wait for every controller and recorder to '
+                                     'connect')
     clock_period: float = param(0.1, unit='s (sim)', low=0.0, high=3600.0,
                                 doc='/clock publishing period (0: every step)')
     map_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
@@ -132,6 +143,18 @@ class RobotLink:
         self.ground_pub.publish(self.ground_msg)
         self.scan_pub.publish(self.scan_msg)
 
+    def take_waiting(self) -> None:
+        """Handle the cleaner and command messages that wait in the subscriptions now, as the
+        executor would (cleaner first)."""
+        for subscription in (self.cleaner_sub, self.cmd_sub):
+            while True:
+                with subscription.handle:
+                    taken = subscription.handle.take_message(subscription.msg_type,
+                                                             subscription.raw)
+                if taken is None:
+                    break
+                subscription.callback(taken[0])
+
 
 class WorldNode(Node):
     """The simulated world of a Mona swarm, stepped in lockstep with its controllers."""
@@ -155,6 +178,8 @@ class WorldNode(Node):
         self.markers_pub = self.create_publisher(MarkerArray, qos.MARKERS, qos.MARKERS_QOS)
         self.status_pub = self.create_publisher(String, qos.STATUS, qos.STATUS_QOS)
         self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
+        self.recorders = RecorderBook(recorder_names(self.options.recorders))
+        self.create_subscription(String, qos.RECORDERS, self.on_recorder, qos.RECORDERS_QOS)
         self.poses_filler = PoseArrayFiller()
         self.cleaning_filler = PoseArrayFiller()
         self.clock_msg = ClockMsg()
@@ -165,7 +190,7 @@ class WorldNode(Node):
         self.links: list[RobotLink] = []
         self.episode = -1
         self.announcement: dict = {}
-        self.state = 'waiting'
+        self.state = WorldState.WAITING
         self.error = ''
         self.start_ns = 0  # absolute sim time of the episode's step 0
         self.time_ns = 0  # absolute sim time now (monotonic across episodes)
@@ -175,6 +200,9 @@ class WorldNode(Node):
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
         self.resend_timer = None  # lockstep, step 0 only
+        self.hold_timer = None  # lockstep: a recorder fell behind
+        self.held_since = None
+        self._round_step = 0  # the step whose commands the current lockstep round awaits
         self.deadline_period = 0.0
         self.publish_status()
         self.get_logger().info(f'world ready ({self.options.mode}), waiting for an episode')
@@ -219,7 +247,7 @@ class WorldNode(Node):
         while len(self.links) < population:
             self.links.append(RobotLink(self, len(self.links), self.mona, self.on_cleaner,
                                         self.on_cmd))
-        self.state = 'waiting'
+        self.state = WorldState.WAITING
         self.error = ''
         self.publish_status()
         self.get_logger().info(f'episode {episode}: {population} robots, seed {seed}, '
@@ -248,12 +276,29 @@ class WorldNode(Node):
                         '--params-file')
         return ''
 
+    def on_recorder(self, msg: String) -> None:
+        """A recorder's report: it records the episode, how far, or that it closed it."""
+        try:
+            self.recorders.update(RecorderReport.from_json(msg.data))
+        except ContractError as error:
+            self.get_logger().warning(str(error), throttle_duration_sec=5.0)
+
+    def _not_recording(self) -> list[str]:
+        """Expected recorders that have not confirmed the episode, or whose subscriptions to
+        the poses and cleaning events (volatile: no history for late joiners) are not matched."""
+        missing = self.recorders.not_recording(self.episode, self.start_ns)
+        subscribed = min(self.poses_pub.get_subscription_count(),
+                         self.cleaning_pub.get_subscription_count())
+        if not missing and subscribed < len(self.recorders.names):
+            return [f'{len(self.recorders.names) - subscribed} subscription(s) to {qos.POSES} '
+                    f'and {qos.CLEANING}']
+        return missing
+
     def _wait_for_controllers(self) -> None:
         n = self.world.population
         missing = [i for i in range(n) if not self.links[i].connected()]
-        recorders = min(self.poses_pub.get_subscription_count(),
-                        self.cleaning_pub.get_subscription_count())
-        if not missing and recorders >= self.options.wait_for_recorders:
+        not_recording = self._not_recording()
+        if not missing and not not_recording:
             self.destroy_timer(self.connect_timer)
             self.connect_timer = None
             self._begin()
@@ -264,18 +309,19 @@ class WorldNode(Node):
             self.connect_timer = None
             shown = ', '.join(str(i) for i in missing[:20]) + (', ...' if len(missing) > 20
                                                                 else '')
-            if not missing:
-                self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s '
-                          f'{recorders} of {self.options.wait_for_recorders} recorders '
-                          f'subscribed to {qos.POSES} and {qos.CLEANING}; start the '
-                          f'metrics_node')
+            if missing:
+                self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s no '
+                          f'controller connected for {len(missing)} of {n} robots ({shown}); '
+                          f'start a mona_controller_node for each of /mona_0 .. '
+                          f'/mona_{n - 1}')
                 return
-            self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s no '
-                      f'controller connected for {len(missing)} of {n} robots ({shown}); start '
-                      f'a mona_controller_node for each of /mona_0 .. /mona_{n - 1}')
+            self.fail(f'episode {self.episode}: after {self.options.start_timeout:g} s the '
+                      f'recorder(s) {", ".join(not_recording)} did not confirm that they '
+                      f'record the episode on {qos.RECORDERS}; is the metrics_node running '
+                      f'and alive?')
 
     def _begin(self) -> None:
-        self.state = 'running'
+        self.state = WorldState.RUNNING
         self.publish_clock()
         self.publish_map()
         self.publish_status()
@@ -289,7 +335,7 @@ class WorldNode(Node):
 
     def _finish(self) -> None:
         self._stop_timers()
-        self.state = 'finished'
+        self.state = WorldState.FINISHED
         self.expected_ns = -1
         self.publish_map()
         self.publish_status()
@@ -301,7 +347,7 @@ class WorldNode(Node):
         """Report an error on /world/status; a fatal one ends the node with status 1."""
         self.get_logger().error(error)
         self._stop_timers()
-        self.state = 'failed'
+        self.state = WorldState.FAILED
         self.error = error
         self.publish_status()
         if fatal and not self.finished.done():
@@ -309,10 +355,12 @@ class WorldNode(Node):
             self.finished.set_result(False)
 
     def _stop_timers(self) -> None:
-        for timer in (self.connect_timer, self.step_timer, self.resend_timer):
+        for timer in (self.connect_timer, self.step_timer, self.resend_timer,
+                      self.hold_timer):
             if timer is not None:
                 self.destroy_timer(timer)
-        self.connect_timer = self.step_timer = self.resend_timer = None
+        self.connect_timer = self.step_timer = self.resend_timer = self.hold_timer = None
+        self.held_since = None
 
     def _reset_counters(self, n: int) -> None:
         self.linear = np.zeros(n)
@@ -326,6 +374,7 @@ class WorldNode(Node):
         self.dropped = 0
         self.duplicates = 0
         self.pending = 0
+        self.cleaning_events = 0  # /world/cleaning messages of this episode
 
     # --- commands -----------------------------------------------------------------------
 
@@ -334,7 +383,7 @@ class WorldNode(Node):
             self.cleaner[robot_id] = msg.data
 
     def on_cmd(self, robot_id: int, msg: TwistStamped) -> None:
-        if self.state != 'running' or robot_id >= len(self.answered):
+        if self.state is not WorldState.RUNNING or robot_id >= len(self.answered):
             return
         stamp = stamp_to_ns(msg.header.stamp)
         linear, angular = msg.twist.linear.x, msg.twist.angular.z
@@ -366,6 +415,13 @@ class WorldNode(Node):
 
     def on_deadline(self) -> None:
         """The lockstep deadline passed: the robots that did not answer hold still."""
+        # The executor runs ready timers before ready subscriptions: on a stalled machine the
+        # deadline can fire with the commands already waiting. Take those first, so a round
+        # is missed only when its commands really did not come.
+        for i in np.flatnonzero(~self.answered & ~self.absent):
+            self.links[i].take_waiting()
+            if self.expected_ns < 0 or self.world.steps != self._round_step:
+                return  # the round completed on a command just taken
         late = np.flatnonzero(~self.answered & ~self.absent)
         self.misses[late] += 1
         self.consecutive[late] += 1
@@ -389,6 +445,9 @@ class WorldNode(Node):
         if self.world.steps >= self.total_steps:
             self._finish()
             return
+        if self._held_by_recorders():
+            return
+        self._round_step = self.world.steps
         self.answered[:] = False
         self.linear[:] = 0.0
         self.angular[:] = 0.0
@@ -404,6 +463,35 @@ class WorldNode(Node):
             # New DDS matches may drop or delay the first messages either way: repeat step 0's
             # readings to the robots that have not answered (they repeat their answer).
             self.resend_timer = self.create_timer(RESEND_PERIOD, self._resend, clock=self.wall)
+
+    def _held_by_recorders(self) -> bool:
+        """Lockstep: hold the next round while a recorder is more than ``recorder_lag`` behind
+        (its subscriptions keep a bounded history); fail the episode after
+        ``recorder_timeout``."""
+        lag_ns = round(self.options.recorder_lag * 1e9)
+        if lag_ns == 0 or not self.recorders.names:
+            return False
+        behind = self.recorders.behind(self.episode, self.start_ns, self.time_ns - lag_ns)
+        if not behind:
+            if self.hold_timer is not None:
+                self.destroy_timer(self.hold_timer)
+                self.hold_timer, self.held_since = None, None
+            return False
+        now = self.wall.now()
+        if self.held_since is None:
+            self.held_since = now
+            if self.step_timer is not None:
+                self.step_timer.cancel()  # no deadline while no round is under way
+            self.get_logger().info(f'step {self.world.steps}: waiting for recorder(s) '
+                                   f'{", ".join(behind)} to catch up',
+                                   throttle_duration_sec=5.0)
+            self.hold_timer = self.create_timer(HOLD_POLL, self._start_round, clock=self.wall)
+        elif (now - self.held_since).nanoseconds / 1e9 > self.options.recorder_timeout:
+            self.fail(f'episode {self.episode}: the recorder(s) {", ".join(behind)} fell '
+                      f'more than {self.options.recorder_lag:g} s of sim time behind and did '
+                      f'not catch up within {self.options.recorder_timeout:g} s; is the '
+                      f'metrics_node alive?', fatal=False)
+        return True
 
     def _arm_deadline(self, period: float) -> None:
         if self.step_timer is not None and self.deadline_period == period:
@@ -447,6 +535,7 @@ class WorldNode(Node):
         if len(self.world.cleaned):
             self.cleaning_pub.publish(self.cleaning_filler.fill(
                 self.world.poses[self.world.cleaned], self.time_ns))
+            self.cleaning_events += 1
         if self.clock_tick.crossed(before, self.time_ns):
             self.publish_clock()
         relative_before, relative = before - self.start_ns, self.world.time_ns
@@ -474,15 +563,16 @@ class WorldNode(Node):
         self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
         self.markers_pub.publish(robot_markers(self.world.poses, self.world.cleaning,
                                                self.mona.body_radius, self.time_ns))
-        if self.state == 'finished':  # the last poses, which no readings round carries
+        if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
             self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
 
     def status(self) -> dict:
         """The /world/status document."""
-        return {'episode': self.episode, 'state': self.state, 'step': self.world.steps,
+        return {'episode': self.episode, 'state': self.state.value, 'step': self.world.steps,
                 'steps': self.total_steps, 'time_ns': self.time_ns, 'mode': self.options.mode,
                 'misses': self.misses.tolist(), 'absent': np.flatnonzero(self.absent).tolist(),
-                'dropped': self.dropped, 'duplicates': self.duplicates, 'error': self.error}
+                'dropped': self.dropped, 'duplicates': self.duplicates,
+                'cleaning_events': self.cleaning_events, 'error': self.error}
 
     def publish_status(self) -> None:
         self.status_pub.publish(String(data=json.dumps(self.status())))
