@@ -59,3 +59,22 @@ def test_topic_names_are_absolute_or_per_robot():
     assert contract.base_frame(0) == 'mona_0/base_link'
     assert all(name.startswith('/') for name in (contract.POSES, contract.RECORDERS,
                                                  contract.EPISODE, contract.STATUS))
+
+
+def test_announcement_round_trips_and_says_what_is_wrong():
+    from mona_controller.contract import Announcement
+    announced = Announcement(2, seed=9, population=2, duration=60.0, start_ns=10**9,
+                             poses=((0.5, 0.5, 0.0), (1.0, 1.5, 3.0)),
+                             parameters={'world': {}})
+    assert Announcement.from_json(announced.to_json()) == announced
+    assert announced.key == (2, 9, 10**9)
+    shutdown = Announcement.from_json(Announcement(2, shutdown=True).to_json())
+    assert shutdown.shutdown and shutdown.episode == 2
+    with pytest.raises(ContractError, match="no 'seed'"):
+        Announcement.from_json('{"episode": 0, "parameters": {}, "poses": []}')
+    with pytest.raises(ContractError, match='population 3 but 2 poses'):
+        Announcement.from_dict({**announced.__dict__, 'population': 3})
+    with pytest.raises(ContractError, match='not all finite'):
+        Announcement.from_dict({**announced.__dict__, 'poses': [[0, 0, 0], [1, 'nan', 0]]})
+    with pytest.raises(ContractError, match='not JSON'):
+        Announcement.from_json('{')

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import math
 from collections.abc import Iterable
 
 # Per robot, relative to the namespace /mona_<i>.
@@ -119,6 +120,94 @@ class RecorderReport:
             raise ContractError(f'a malformed /recorders report ({error}): {text[:200]}') \
                 from None
         return report
+
+
+@dataclasses.dataclass(frozen=True)
+class Announcement:
+    """The supervisor's /episode message (std_msgs/String JSON): an episode, or the shutdown.
+
+    ``poses`` and ``parameters`` stay plain lists and mappings: each reader checks the part it
+    uses (the world its own sections, the analysis every section) with the schema.
+    """
+
+    episode: int
+    shutdown: bool = False  #: the run is over: every node exits
+    seed: int = 0
+    population: int = 0
+    duration: float = 0.0  #: s of sim time
+    start_ns: int = 0  #: sim time of the episode's t = 0
+    poses: tuple[tuple[float, float, float], ...] = ()  #: [x, y, yaw] per robot, world frame
+    parameters: dict = dataclasses.field(default_factory=dict)  #: every section
+
+    @property
+    def key(self) -> tuple[int, int, int]:
+        """(episode, seed, start_ns): the same key is the same announcement redelivered."""
+        return self.episode, self.seed, self.start_ns
+
+    def to_json(self) -> str:
+        """The message text (a shutdown carries only the episode and the flag)."""
+        if self.shutdown:
+            return json.dumps({'episode': self.episode, 'shutdown': True})
+        return json.dumps({'episode': self.episode, 'seed': self.seed,
+                           'population': self.population, 'duration': self.duration,
+                           'start_ns': self.start_ns, 'poses': [list(p) for p in self.poses],
+                           'parameters': self.parameters})
+
+    @classmethod
+    def from_dict(cls, document: dict) -> Announcement:
+        """Parse a decoded announcement.
+
+        Raises:
+            ContractError: naming the missing field or the bad value.
+        """
+        try:
+            if not isinstance(document, dict):
+                raise TypeError('not a JSON object')
+            if document.get('shutdown'):
+                return cls(episode=int(document.get('episode', -1)), shutdown=True)
+            parameters = document['parameters']
+            if not isinstance(parameters, dict):
+                raise TypeError("'parameters' is not a mapping")
+            poses = tuple((float(x), float(y), float(yaw)) for x, y, yaw in document['poses'])
+            announcement = cls(episode=int(document['episode']), seed=int(document['seed']),
+                               population=int(document['population']),
+                               duration=float(document['duration']),
+                               start_ns=int(document['start_ns']), poses=poses,
+                               parameters=parameters)
+        except KeyError as error:
+            raise ContractError(f'the episode announcement has no {error.args[0]!r}') from None
+        except (TypeError, ValueError, OverflowError) as error:
+            raise ContractError(f'bad episode announcement: {error}') from None
+        problem = announcement.problem()
+        if problem:
+            raise ContractError(f'bad episode announcement: {problem}')
+        return announcement
+
+    @classmethod
+    def from_json(cls, text: str) -> Announcement:
+        """Parse a /episode message.
+
+        Raises:
+            ContractError: not JSON, or as :meth:`from_dict`.
+        """
+        try:
+            document = json.loads(text)
+        except ValueError as error:
+            raise ContractError(f'the episode announcement is not JSON ({error}): '
+                                f'{text[:200]}') from None
+        return cls.from_dict(document)
+
+    def problem(self) -> str:
+        """What makes this episode unplayable ('' = nothing)."""
+        if self.population < 0 or len(self.poses) != self.population:
+            return f'population {self.population} but {len(self.poses)} poses'
+        if not all(math.isfinite(v) for pose in self.poses for v in pose):
+            return 'the poses are not all finite'
+        if not (self.duration > 0 and math.isfinite(self.duration)):
+            return f'duration {self.duration} s is not positive'
+        if self.start_ns < 0:
+            return f'start_ns {self.start_ns} is negative'
+        return ''
 
 
 def recorder_names(text: str) -> tuple[str, ...]:
