@@ -13,42 +13,21 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
-
-from mona_controller.mona import wheels_to_twist
-from swarm_metrics.metrics import sample
 from swarm_supervisor.config import load_config
-from swarm_supervisor.runner import run_episode, start_episode
-from swarm_world.sensors import ground_readings, proximity
+from swarm_supervisor.episode import Episode
+from swarm_supervisor.runner import run_episode
 
 
 def split(config, steps: int) -> dict[str, float]:
-    """Microseconds per step spent in each part of the loop, for one episode's first steps."""
-    world, controllers = start_episode(config)
-    spent = dict.fromkeys(('ground sensors', 'IR sensors', 'controller', 'physics+cleaning',
-                           'metrics (per step share)'), 0.0)
-    clock = time.perf_counter
+    """Microseconds per step spent in each part of the step, for one episode's first steps."""
+    episode = Episode(config, profile=True)
     for _ in range(steps):
-        t0 = clock()
-        ground = ground_readings(world.cue, world.params.cell_size, world.poses,
-                                 world.mona.wheel_separation)
-        t1 = clock()
-        ranges, is_robot = proximity(world.poses, world.mona.body_radius, world.bearings,
-                                     world.mona.ir_range, world.params.arena_side)
-        t2 = clock()
-        command = controllers.step(ground, ranges, is_robot, world.now)
-        t3 = clock()
-        linear, angular = wheels_to_twist(command.wheels, config.mona)
-        world.step(linear, angular, command.cleaner)
-        t4 = clock()
-        spent['ground sensors'] += t1 - t0
-        spent['IR sensors'] += t2 - t1
-        spent['controller'] += t3 - t2
-        spent['physics+cleaning'] += t4 - t3
+        episode.step()
+    spent = dict(episode.profile)
+    clock = time.perf_counter
     t0 = clock()
     for _ in range(100):
-        sample(0.0, world.cue, world.initial_mean_cue, world.poses[:, :2], world.params.centre,
-               config.metrics)
+        episode.metrics()
     per_sample = (clock() - t0) / 100
     spent['metrics (per step share)'] = per_sample * steps * config.world.step_period
     return {key: value / steps * 1e6 for key, value in spent.items()}
@@ -82,7 +61,6 @@ def main() -> None:
     for name, value in parts.items():
         print(f'  {name:26s} {value:7.1f}  ({value / total:5.1%})')
     print(f'  {"total":26s} {total:7.1f}')
-    np.set_printoptions()
 
 
 if __name__ == '__main__':

@@ -20,11 +20,12 @@ from std_msgs.msg import Bool, Float64, String
 
 from mona_controller import qos
 from mona_controller.messages import PoseArrayFiller, cue_image, fill_twist, ground_image
-from mona_controller.mona import wheels_to_twist
 from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import find_mcap, read_episode_bag
 from swarm_supervisor.config import load_config
-from swarm_supervisor.runner import run_episode, start_episode
+from swarm_supervisor.episode import Episode
+from swarm_supervisor.runner import run_episode
+from swarm_world.timing import crossed
 
 from bagtools import announcement
 
@@ -66,29 +67,24 @@ class FakeWorld:
         completes the sample); each sample is awaited on /metrics/mean_cue, so a slow
         machine cannot make the node's queues overflow.
         """
-        world, controllers = start_episode(config)
-        sample_ns = round(config.metrics.sample_period * 1e9)
+        episode = Episode(config)
+        world = episode.world
         self.say(self.episode, announcement(config, world.poses, START_NS))
         self.say(self.status, {'episode': 0, 'state': 'running', 'time_ns': START_NS})
         self.wait_for_samples(1)
         map_ns, completes = 2_000_000_000, 0
-        for _ in range(config.steps() if steps is None else steps):
-            readings = world.sense()
-            command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                       readings.now)
-            before = world.time_ns
-            world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
-            now = START_NS + world.time_ns
-            if len(world.cleaned):
-                self.cleaning.publish(self.cleaned.fill(world.poses[world.cleaned], now))
-            if world.time_ns // map_ns > before // map_ns:
+        for _ in range(episode.steps_total if steps is None else steps):
+            step = episode.step()
+            now = START_NS + step.time_ns
+            if len(step.cleaned):
+                self.cleaning.publish(self.cleaned.fill(world.poses[step.cleaned], now))
+            if crossed(step.before_ns, step.time_ns, map_ns):
                 self.map.publish(cue_image(world.cue, now))
-            crossed = world.time_ns // sample_ns > before // sample_ns
-            if crossed or completes:
+            if step.sampled or completes:
                 self.poses.publish(self.filler.fill(world.poses, now))
             if completes:
                 self.wait_for_samples(completes)
-            completes = world.time_ns // sample_ns + 1 if crossed else 0
+            completes = step.time_ns // episode.sample_ns + 1 if step.sampled else 0
         if steps is None:
             self.say(self.status, {'episode': 0, 'state': 'finished',
                                    'time_ns': START_NS + world.time_ns})

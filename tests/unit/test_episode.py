@@ -7,22 +7,19 @@ import numpy as np
 import pytest
 
 from mona_controller.controller import WAIT
-from mona_controller.mona import wheels_to_twist
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.runner import run_episode, start_episode
+from swarm_supervisor.episode import Episode
+from swarm_supervisor.runner import run_episode
 
 SIDE, RADIUS = 2.85, 0.04
 
 
 def stepped(config, steps):
     """Yield (world, controllers, command) after each step of an episode."""
-    world, controllers = start_episode(config)
+    episode = Episode(config)
     for _ in range(steps):
-        readings = world.sense()
-        command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                   readings.now)
-        world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
-        yield world, controllers, command
+        command = episode.step().command
+        yield episode.world, episode.controllers, command
 
 
 def test_invariants_over_an_episode():
@@ -99,7 +96,7 @@ def test_without_robots_the_cue_stays_put():
     config = SwarmConfig().replace(episode={'population': 0, 'duration': 500.0})
     result = run_episode(config)
     assert {row['mean_cue_fraction'] for row in result.metrics} == {1.0}
-    assert np.array_equal(result.final_cue, start_episode(config)[0].initial_cue)
+    assert np.array_equal(result.final_cue, Episode(config).world.initial_cue)
 
 
 def test_cli_run_writes_the_outputs(tmp_path):

@@ -12,7 +12,6 @@ The file is a ROS 2 parameter file whose ``/**`` wildcard section holds every pa
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,7 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError, from_mapping, param, to_mapping, validate
 from swarm_metrics.metrics import MetricsParams
 from swarm_world.params import WorldParams
+from swarm_world.timing import steps_for
 
 #: The parameter file shipped with the project.
 DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / 'ros_ws' / 'config' / 'mona_swarm.yaml'
@@ -88,7 +88,7 @@ class SwarmConfig:
 
     def steps(self) -> int:
         """Steps in one episode (the duration rounded up to whole steps)."""
-        return math.ceil(round(self.episode.duration * 1e9) / self.world.step_ns)
+        return steps_for(self.episode.duration, self.world.step_ns)
 
 
 def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> SwarmConfig:

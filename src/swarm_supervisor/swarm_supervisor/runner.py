@@ -10,10 +10,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from mona_controller.controller import SwarmController
-from mona_controller.mona import wheels_to_twist
-from swarm_metrics.metrics import sample
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.placement import place_robots, placement_rng
+from swarm_supervisor.episode import Episode
 from swarm_world.world import World
 
 
@@ -38,15 +36,10 @@ class EpisodeResult:
 
 
 def start_episode(config: SwarmConfig) -> tuple[World, SwarmController]:
-    """Place the robots from the episode seed and reset the world and the controllers."""
-    world = World(config.world, config.mona)
-    n = config.episode.population
-    poses = place_robots(n, config.world.arena_side, config.mona.body_radius,
-                         placement_rng(config.episode.seed))
-    world.reset(poses)
-    controllers = SwarmController(config.controller, config.mona, range(n))
-    controllers.reset(config.episode.seed)
-    return world, controllers
+    """The world and the controllers of a fresh :class:`Episode` (for callers that step the
+    parts themselves; prefer the Episode)."""
+    episode = Episode(config)
+    return episode.world, episode.controllers
 
 
 def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
@@ -59,35 +52,26 @@ def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
         progress: called with the sim time after each metrics sample.
     """
     started = time.perf_counter()
-    world, controllers = start_episode(config)
-    initial_poses = world.poses.copy()
-    centre = config.world.centre
-    sample_ns = round(config.metrics.sample_period * 1e9)
+    episode = Episode(config)
+    world = episode.world
     pending = sorted(snapshot_times)
     snapshots: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    rows: list[dict[str, float]] = []
 
-    def record(t: float) -> None:
-        rows.append(sample(t, world.cue, world.initial_mean_cue, world.poses[:, :2], centre,
-                           config.metrics))
+    def record() -> None:
+        rows.append(episode.metrics())
+        t = rows[-1]['t']
         while pending and pending[0] <= t + 1e-9:
             snapshots[pending.pop(0)] = (world.cue.copy(), world.poses.copy())
         if progress is not None:
             progress(t)
 
-    rows: list[dict[str, float]] = []
-    record(0.0)
-    steps = config.steps()
-    for _ in range(steps):
-        readings = world.sense()
-        command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                   readings.now)
-        linear, angular = wheels_to_twist(command.wheels, config.mona)
-        before = world.time_ns
-        world.step(linear, angular, command.cleaner)
-        if world.time_ns // sample_ns > before // sample_ns:
-            record(world.time_ns // sample_ns * config.metrics.sample_period)
+    record()
+    while not episode.done:
+        if episode.step().sampled:
+            record()
     return EpisodeResult(
-        config=config, metrics=rows, initial_poses=initial_poses,
+        config=config, metrics=rows, initial_poses=episode.initial_poses,
         final_poses=world.poses.copy(), final_cue=world.cue.copy(), snapshots=snapshots,
-        encounters=int(controllers.encounters.sum()), steps=steps,
+        encounters=int(episode.controllers.encounters.sum()), steps=episode.steps_done,
         wall_time=time.perf_counter() - started)

@@ -16,6 +16,7 @@ from swarm_world import cue as cue_field
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics
 from swarm_world.sensors import ground_readings, proximity
+from swarm_world.timing import crossed
 
 
 @dataclasses.dataclass
@@ -103,7 +104,7 @@ class World:
         self.time_ns = self.steps * self.params.step_ns
         period_ns = round(self.params.cleaning_period * 1e9)
         self.cleaned = np.zeros(0, dtype=np.int64)
-        if self.time_ns // period_ns > before // period_ns and self.cleaning.any():
+        if crossed(before, self.time_ns, period_ns) and self.cleaning.any():
             self.cleaned = np.flatnonzero(self.cleaning)
             self._clean(self.cleaned)
 

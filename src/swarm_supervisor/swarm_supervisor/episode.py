@@ -1,0 +1,156 @@
+"""The episode engine: placement, then sense -> controllers -> wheels -> world, step by step.
+
+The one loop of the model in one process. The embedded runner, the tests and the benchmarks
+drive :class:`Episode`; the ROS nodes run the same parts over topics. Pure (no ROS).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from mona_controller.controller import Command, SwarmController
+from mona_controller.mona import wheels_to_twist
+from swarm_metrics.metrics import sample
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.placement import place_robots, placement_rng
+from swarm_world.sensors import ground_readings, proximity
+from swarm_world.timing import crossed
+from swarm_world.world import World
+
+#: The parts of a step that a profiled episode times (see ``Episode(profile=True)``).
+PARTS = ('ground sensors', 'IR sensors', 'controller', 'physics+cleaning')
+
+
+def place_swarm(config: SwarmConfig, seed: int) -> np.ndarray:
+    """The initial poses [N, 3] of an episode of ``config`` with this seed.
+
+    Raises:
+        PlacementError: the population does not fit in the arena.
+    """
+    return place_robots(config.episode.population, config.world.arena_side,
+                        config.mona.body_radius, placement_rng(seed))
+
+
+@dataclasses.dataclass(slots=True)
+class Step:
+    """What one step did."""
+
+    before_ns: int  #: sim time before the step
+    time_ns: int  #: sim time after the step
+    sampled: bool  #: it crossed a metrics sample boundary: a metrics row is due now
+    cleaned: np.ndarray  #: indices of the robots that cleaned in this step (usually none)
+    command: Command  #: the controllers' answer that drove the step
+
+
+class Episode:
+    """One episode of ``config``: N Monas, their controllers and the world, in one process.
+
+    Ready to step once built (placed from ``config.episode.seed``); :meth:`reset` starts over,
+    from another seed if given. Sim time is the world's integer nanoseconds.
+    """
+
+    def __init__(self, config: SwarmConfig, *, profile: bool = False) -> None:
+        """Build the world and the controllers and reset them.
+
+        Args:
+            profile: time each of :data:`PARTS` of every step into :attr:`profile` (the
+                benchmark's split; a little slower, same results).
+        """
+        self.config = config
+        self.world = World(config.world, config.mona)
+        self.controllers = SwarmController(config.controller, config.mona,
+                                           range(config.episode.population))
+        self.steps_total = config.steps()
+        self.sample_ns = round(config.metrics.sample_period * 1e9)
+        #: Seconds spent in each of :data:`PARTS`, summed over steps; None when not profiled.
+        self.profile = dict.fromkeys(PARTS, 0.0) if profile else None
+        self.seed = config.episode.seed
+        self.initial_poses = np.zeros((0, 3))
+        self.reset()
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start over: place the robots from ``seed`` (default ``config.episode.seed``), restore
+        the cue, reseed every controller.
+
+        Raises:
+            PlacementError: the population does not fit in the arena.
+        """
+        self.seed = self.config.episode.seed if seed is None else seed
+        self.world.reset(place_swarm(self.config, self.seed))
+        self.controllers.reset(self.seed)
+        self.initial_poses = self.world.poses.copy()
+        if self.profile is not None:
+            self.profile = dict.fromkeys(PARTS, 0.0)
+
+    @property
+    def time_ns(self) -> int:
+        """Sim time (ns) since the episode started."""
+        return self.world.time_ns
+
+    @property
+    def now(self) -> float:
+        """Sim time in seconds."""
+        return self.world.time_ns / 1e9
+
+    @property
+    def steps_done(self) -> int:
+        """Steps taken since the last reset."""
+        return self.world.steps
+
+    @property
+    def done(self) -> bool:
+        """Whether the episode has run its duration (``steps_total`` steps)."""
+        return self.world.steps >= self.steps_total
+
+    def step(self) -> Step:
+        """Sense, let every controller answer, drive the wheels and advance the world one step.
+
+        Stepping past :attr:`done` carries on (the caller decides when to stop).
+        """
+        if self.profile is not None:
+            return self._profiled_step()
+        world = self.world
+        readings = world.sense()
+        command = self.controllers.step(readings.ground, readings.ranges, readings.is_robot,
+                                        readings.now)
+        linear, angular = wheels_to_twist(command.wheels, self.config.mona)
+        before = world.time_ns
+        world.step(linear, angular, command.cleaner)
+        return Step(before, world.time_ns, crossed(before, world.time_ns, self.sample_ns),
+                    world.cleaned, command)
+
+    def _profiled_step(self) -> Step:
+        """:meth:`step` with its parts timed; it senses as ``World.sense`` does, in two halves
+        (tests hold both paths to the same trajectory)."""
+        world, spent, clock = self.world, self.profile, time.perf_counter
+        mona, poses = world.mona, world.poses
+        t0 = clock()
+        ground = ground_readings(world.cue, world.params.cell_size, poses,
+                                 mona.wheel_separation)
+        t1 = clock()
+        ranges, is_robot = proximity(poses, mona.body_radius, world.bearings, mona.ir_range,
+                                     world.params.arena_side)
+        t2 = clock()
+        command = self.controllers.step(ground, ranges, is_robot, world.now)
+        t3 = clock()
+        linear, angular = wheels_to_twist(command.wheels, mona)
+        before = world.time_ns
+        world.step(linear, angular, command.cleaner)
+        t4 = clock()
+        spent['ground sensors'] += t1 - t0
+        spent['IR sensors'] += t2 - t1
+        spent['controller'] += t3 - t2
+        spent['physics+cleaning'] += t4 - t3
+        return Step(before, world.time_ns, crossed(before, world.time_ns, self.sample_ns),
+                    world.cleaned, command)
+
+    def metrics(self) -> dict[str, float]:
+        """The metrics row of the current state, stamped with the last sample boundary's time
+        (what the runner records at t = 0 and after each step with ``sampled``)."""
+        world = self.world
+        t = world.time_ns // self.sample_ns * self.config.metrics.sample_period
+        return sample(t, world.cue, world.initial_mean_cue, world.poses[:, :2],
+                      self.config.world.centre, self.config.metrics)
