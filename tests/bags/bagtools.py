@@ -75,11 +75,13 @@ def announcement(config: SwarmConfig, poses: np.ndarray, start_ns: int,
             'parameters': config.to_dict()}
 
 
-def finished_status(config: SwarmConfig, steps: int, time_ns: int) -> dict:
+def finished_status(config: SwarmConfig, steps: int, time_ns: int,
+                    cleaning_events: int = 0) -> dict:
     """The world node's last /world/status of episode 0 (lockstep, nothing missed)."""
     return {'episode': 0, 'state': 'finished', 'step': steps, 'steps': steps,
             'time_ns': time_ns, 'mode': 'lockstep', 'misses': [0] * config.episode.population,
-            'absent': [], 'dropped': 0, 'duplicates': 0, 'error': None}
+            'absent': [], 'dropped': 0, 'duplicates': 0, 'cleaning_events': cleaning_events,
+            'error': None}
 
 
 def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 * 10**9,
@@ -115,6 +117,7 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
         write('/world/cue_map', start_ns, image_cdr(world.cue, start_ns))
         for name in METRICS:
             write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
+        cleaning_events = 0
         for _ in range(config.steps()):
             readings = world.sense()
             command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
@@ -124,6 +127,7 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
             now = start_ns + world.time_ns
             if len(world.cleaned):
                 write('/world/cleaning', now, pose_array_cdr(world.poses[world.cleaned], now))
+                cleaning_events += 1
             crossed = world.time_ns // sample_ns > before // sample_ns
             if crossed or all_poses:
                 write('/world/poses', now, pose_array_cdr(world.poses, now))
@@ -142,7 +146,7 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
         if finished:
             end = start_ns + world.time_ns
             write('/world/status', end, string_cdr(json.dumps(
-                finished_status(config, config.steps(), end))))
+                finished_status(config, config.steps(), end, cleaning_events))))
     return rows
 
 

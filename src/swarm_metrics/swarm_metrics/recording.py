@@ -1,0 +1,327 @@
+"""Recording episodes: the metrics node's logic, without ROS.
+
+A :class:`Recorder` takes the messages of the world and the supervisor as the CDR bytes that
+arrived, keeps one bag per announced episode (:class:`~swarm_metrics.bag_writer.
+EpisodeBagWriter`), drives the :class:`~swarm_metrics.analysis.MetricsReplica` that computes
+the metrics online, and knows when its record of an episode is whole: it has the world's
+final status and everything that status counts (the poses up to its time, its
+``cleaning_events``), and a metric sample for every sample period from t = 0. The node
+(:mod:`swarm_metrics.metrics_node`) subscribes, calls it, and publishes what it returns.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import struct
+from pathlib import Path
+from typing import NamedTuple
+
+from rosbags.interfaces import Qos
+
+from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
+                                      STATUS, WorldState)
+from swarm_metrics.analysis import METRIC_NAMES, AnnouncementError, EpisodeSetup, MetricsReplica
+from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
+from swarm_metrics.bag_writer import EpisodeBagWriter
+
+STRING, POSE_ARRAY, IMAGE, FLOAT64 = ('std_msgs/msg/String', 'geometry_msgs/msg/PoseArray',
+                                      'sensor_msgs/msg/Image', 'std_msgs/msg/Float64')
+#: Messages of an episode not yet announced that are kept for its bag (see Recorder.route).
+EARLY_LIMIT = 20_000
+#: A metric row as the node publishes it: (log time ns, {metric: value}).
+Row = tuple[int, dict[str, float]]
+
+
+def stamp_ns(data: bytes) -> int:
+    """The stamp of a serialized message whose first field is a Time (a Header, a Clock).
+
+    Reads the CDR bytes directly (encapsulation, then sec int32 and nanosec uint32), so a
+    recorded message needs no deserialization.
+    """
+    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+def float64_cdr(value: float) -> bytes:
+    """A std_msgs/Float64 serialized as rclpy does (little-endian CDR)."""
+    return b'\x00\x01\x00\x00' + struct.pack('<d', value)
+
+
+@dataclasses.dataclass
+class Episode:
+    """What is known of the episode being recorded."""
+
+    setup: EpisodeSetup
+    bag: EpisodeBagWriter
+    replica: MetricsReplica
+    samples: int = 0  #: metric samples taken (t = 0 included)
+    cleaning: int = 0  #: /world/cleaning messages recorded
+    last_pose_ns: int = 0
+    last_map_ns: int = -1
+    running: bool = False  #: the world said it runs the episode
+    final: dict | None = None  #: the world's finished or failed status
+
+    @property
+    def recorded_ns(self) -> int:
+        """Sim time up to which the record is whole (the last sample's time)."""
+        return self.setup.start_ns + max(self.samples - 1, 0) * self.setup.sample_ns
+
+    def all_arrived(self) -> bool:
+        """The world reported the end and everything its final status counts is here."""
+        if self.final is None:
+            return False
+        # The world publishes the final poses and cue map, then its final status, on three
+        # topics: any of them may come last.
+        end_ns = self.final.get('time_ns', self.setup.end_ns)
+        counted = self.final.get('cleaning_events')
+        return (self.last_pose_ns >= end_ns and self.last_map_ns >= end_ns
+                and (not isinstance(counted, int) or self.cleaning >= counted))
+
+    def problems(self) -> list[str]:
+        """What the record lacks (nothing: it is complete)."""
+        problems = []
+        final = self.final or {}
+        if final.get('state') != WorldState.FINISHED.value:
+            problems.append('the world did not report the episode finished'
+                            + (f' (it {final.get("state")}: {final.get("error")})'
+                               if final else ''))
+        end_ns = final.get('time_ns', self.setup.end_ns)
+        expected = (end_ns - self.setup.start_ns) // self.setup.sample_ns + 1
+        if self.samples != expected:
+            problems.append(f'{self.samples} of {expected} metric samples (t = 0 .. '
+                            f'{(expected - 1) * self.setup.metrics.sample_period:g} s)')
+        counted = final.get('cleaning_events')
+        if isinstance(counted, int) and self.cleaning != counted:
+            problems.append(f'{self.cleaning} of the {counted} cleaning events')
+        if self.replica.late_events:
+            problems.append(f'{self.replica.late_events} cleaning events arrived after their '
+                            'time was sampled')
+        return problems
+
+
+@dataclasses.dataclass(frozen=True)
+class Closed:
+    """An episode's record, closed."""
+
+    episode: int
+    start_ns: int
+    path: Path
+    messages: int
+    problems: tuple[str, ...]  #: empty: the record is complete
+
+
+class Announced(NamedTuple):
+    """What an /episode message did."""
+
+    setup: EpisodeSetup | None  #: the episode it opened (None: a shutdown, or redelivered)
+    closed: Closed | None  #: the previous episode's record, if this closed it
+    rows: list[Row]  #: metric rows to publish (the new episode's t = 0)
+    shutdown: bool = False  #: the supervisor announced the end of the run
+
+
+class Recorder:
+    """One bag per announced episode, with the metrics computed online.
+
+    Args:
+        output_dir: episode k's bag goes to ``<output_dir>/episode_<k>/bag`` (``bag_1``, ...
+            if that exists: a rerun never overwrites a bag).
+        topics: topic -> (type name, offered QoS) of everything that may be recorded.
+        chunk_period: sim seconds per bag chunk.
+        cue_map_period: record /world/cue_map at most this often (sim s; 0: every map).
+        clock_period: record /clock at most this often (sim s; 0: every tick).
+        record_all: record every message routed here, not just the sampled or periodic ones.
+    """
+
+    def __init__(self, output_dir: Path, topics: dict[str, tuple[str, Qos]], *,
+                 chunk_period: float, cue_map_period: float, clock_period: float,
+                 record_all: bool = False) -> None:
+        self.output_dir = output_dir
+        self.topics = topics
+        self.chunk_period = chunk_period
+        self.periods_ns = {CUE_MAP: round(cue_map_period * 1e9),
+                           CLOCK: round(clock_period * 1e9)}
+        self.record_all = record_all
+        self.episode: Episode | None = None
+        self.now_ns = 0  #: the latest sim time seen, for messages without a stamp
+        self.early_lost = 0  #: early messages dropped because EARLY_LIMIT was reached
+        self._closed_end_ns = -1  # older messages belong to no episode still to come
+        self._early: collections.deque[tuple[str, bytes]] = collections.deque()
+        self._last_recorded: dict[str, int] = {}  # of the periodic topics
+
+    # --- episodes -------------------------------------------------------------------
+
+    def announce(self, data: bytes) -> Announced:
+        """An /episode message: open the announced episode's bag.
+
+        Raises:
+            BagError: the message is not an announcement (its text says why).
+        """
+        document = decode_json(RawMessage(EPISODE, STRING, 0, data))
+        if document.get('shutdown'):
+            return Announced(None, None, [], shutdown=True)
+        try:
+            setup = EpisodeSetup.from_announcement(document)
+        except AnnouncementError as error:
+            raise BagError(str(error)) from None
+        current = self.episode
+        if current is not None and (setup.episode, setup.start_ns) == \
+                (current.setup.episode, current.setup.start_ns):
+            return Announced(None, None, [])  # the latched announcement again
+        closed, rows = self.close() if current is not None else (None, [])
+        rows += self._open(setup, document, data)
+        return Announced(setup, closed, rows)
+
+    def _open(self, setup: EpisodeSetup, document: dict, data: bytes) -> list[Row]:
+        folder = self.output_dir / f'episode_{setup.episode}'
+        folder.mkdir(parents=True, exist_ok=True)
+        path, n = folder / 'bag', 1
+        while path.exists():
+            path, n = folder / f'bag_{n}', n + 1
+        bag = EpisodeBagWriter(path, chunk_period=self.chunk_period)
+        self.episode = Episode(setup, bag, MetricsReplica(setup), last_pose_ns=setup.start_ns)
+        self._last_recorded.clear()
+        for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP,
+                      *(METRICS_PREFIX + name for name in METRIC_NAMES)):
+            self._add_topic(topic)
+        bag.describe(document)
+        bag.write(EPISODE, setup.start_ns, data)
+        bag.flush()  # the seed and parameters survive even an immediate SIGKILL
+        rows = self._samples([self.episode.replica.initial()])
+        early, self._early = self._early, collections.deque()
+        for topic, message in early:  # what came before the announcement, in order
+            rows += self.route(topic, message)
+        return rows
+
+    def close(self) -> tuple[Closed | None, list[Row]]:
+        """Take the last sample and close the bag (nothing open: (None, []))."""
+        episode = self.episode
+        if episode is None:
+            return None, []
+        rows: list[Row] = []
+        try:
+            rows = self._samples(episode.replica.finish())
+            problems = tuple(episode.problems())
+        finally:
+            self.episode = None
+            episode.bag.close()
+            self._closed_end_ns = max(self._closed_end_ns, self.now_ns, episode.last_pose_ns)
+        return Closed(episode.setup.episode, episode.setup.start_ns, episode.bag.path,
+                      episode.bag.messages, problems), rows
+
+    def done(self) -> bool:
+        """The open episode ended and everything the world counted has arrived."""
+        return self.episode is not None and self.episode.all_arrived()
+
+    # --- messages -------------------------------------------------------------------
+
+    def status(self, data: bytes) -> bool:
+        """A /world/status message; True if it ends the open episode (finished or failed).
+
+        Raises:
+            BagError: the message does not hold a JSON object.
+        """
+        status = decode_json(RawMessage(STATUS, STRING, 0, data))
+        time_ns = status.get('time_ns')
+        if isinstance(time_ns, int) and time_ns >= 0:
+            self.now_ns = max(self.now_ns, time_ns)
+        episode = self.episode
+        if episode is None or status.get('episode') != episode.setup.episode:
+            return False
+        self.write(STATUS, self.now_ns, data)
+        state = status.get('state')
+        if state == WorldState.RUNNING.value:
+            episode.running = True
+        elif state in (WorldState.FINISHED.value, WorldState.FAILED.value) \
+                and episode.final is None:
+            episode.final = status
+            return True
+        return False
+
+    def route(self, topic: str, data: bytes) -> list[Row]:
+        """A /world/poses, /world/cleaning or /world/cue_map message; returns metric rows.
+
+        The world steps an episode only after the node has said it records it, so its
+        messages cannot come first; should they anyway (a world that does not wait), they are
+        kept, up to EARLY_LIMIT, and filed once the announcement arrives. Messages older than
+        the last closed episode are stale and dropped.
+        """
+        stamp = stamp_ns(data)
+        self.now_ns = max(self.now_ns, stamp)
+        episode = self.episode
+        if episode is not None and stamp <= episode.setup.end_ns:
+            if topic == CUE_MAP:
+                self.periodic(topic, data)
+            elif stamp > episode.setup.start_ns:
+                return self._poses(stamp, data) if topic == POSES else self._cleaning(stamp,
+                                                                                      data)
+        elif stamp > self._closed_end_ns:
+            if len(self._early) >= EARLY_LIMIT:
+                self._early.popleft()
+                self.early_lost += 1
+            self._early.append((topic, data))
+        return []
+
+    def _poses(self, stamp: int, data: bytes) -> list[Row]:
+        episode = self.episode
+        episode.last_pose_ns = max(episode.last_pose_ns, stamp)
+        poses = None
+        if episode.replica.due(stamp):
+            poses = poses_of(decode(RawMessage(POSES, POSE_ARRAY, stamp, data)))
+            if len(poses) != episode.setup.population:
+                raise BagError(f'{POSES} carries {len(poses)} robots, the episode '
+                               f'{episode.setup.population}')
+        rows, sampled = episode.replica.pose(stamp, poses)
+        if sampled or self.record_all:
+            self.write(POSES, stamp, data)
+        return self._samples(rows)
+
+    def _cleaning(self, stamp: int, data: bytes) -> list[Row]:
+        episode = self.episode
+        episode.replica.cleaning(stamp, poses_of(decode(RawMessage(CLEANING, POSE_ARRAY, stamp,
+                                                                   data))))
+        self.write(CLEANING, stamp, data)
+        episode.cleaning += 1
+        return []
+
+    def periodic(self, topic: str, data: bytes) -> None:
+        """Record a /clock or /world/cue_map message: at most one per period, and the one
+        that ends the episode (the final cue map)."""
+        stamp = stamp_ns(data)
+        self.now_ns = max(self.now_ns, stamp)
+        if self.episode is None:
+            return
+        if topic == CUE_MAP:
+            self.episode.last_map_ns = max(self.episode.last_map_ns, stamp)
+        last = self._last_recorded.get(topic)
+        if (self.record_all or last is None or stamp - last >= self.periods_ns[topic]
+                or stamp >= self.episode.setup.end_ns):
+            self._last_recorded[topic] = stamp
+            self.write(topic, stamp, data)
+
+    def stamped(self, topic: str, data: bytes) -> None:
+        """Record a message with a header (record_all's per-robot topics) at its stamp."""
+        stamp = stamp_ns(data)
+        self.now_ns = max(self.now_ns, stamp)
+        self.write(topic, stamp, data)
+
+    def _samples(self, rows: list[Row]) -> list[Row]:
+        """Record metric rows in the bag; return them."""
+        for log_ns, row in rows:
+            for name in METRIC_NAMES:
+                self.write(METRICS_PREFIX + name, log_ns, float64_cdr(float(row[name])))
+            self.episode.samples += 1
+        return rows
+
+    def write(self, topic: str, log_ns: int, data: bytes) -> None:
+        """Record a message in the open bag (none open: nothing)."""
+        if self.episode is None:
+            return
+        self._add_topic(topic)
+        self.episode.bag.write(topic, log_ns, data)
+
+    def _add_topic(self, topic: str) -> None:
+        bag = self.episode.bag
+        if not bag.has_topic(topic):
+            msgtype, profile = self.topics[topic]
+            bag.add_topic(topic, msgtype, [profile])

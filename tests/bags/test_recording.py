@@ -1,0 +1,97 @@
+"""The metrics node's recording logic without ROS: a Recorder fed an episode's messages as
+the CDR bytes the world sends (taken from a bag of an embedded episode) writes a bag equal to
+the embedded run, files messages that come before their announcement, and says exactly what
+an incomplete record lacks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mona_controller.contract import CLEANING, EPISODE, POSES, STATUS
+from swarm_metrics.analysis import recompute
+from swarm_metrics.bag_reader import McapScan, find_mcap, read_episode_bag
+from swarm_metrics.recording import Recorder, float64_cdr
+from swarm_supervisor.config import load_config
+
+from bagtools import TOPICS, embedded_episode_bag
+
+CONFIG = load_config().replace(episode={'population': 10, 'duration': 12.0, 'seed': 3})
+
+
+@pytest.fixture(scope='module')
+def world_messages(tmp_path_factory) -> tuple[list[tuple[str, bytes]], list[dict]]:
+    """(the messages of a 12 s episode as (topic, CDR) in the world's order, its rows)."""
+    path = tmp_path_factory.mktemp('source') / 'bag'
+    rows = embedded_episode_bag(path, CONFIG, map_period=4.0)
+    messages = [(m.topic, m.data) for m in McapScan(find_mcap(path))
+                if not m.topic.startswith('/metrics/')]
+    return messages, rows
+
+
+def feed(recorder: Recorder, messages: list[tuple[str, bytes]]) -> None:
+    for topic, data in messages:
+        if topic == EPISODE:
+            recorder.announce(data)
+        elif topic == STATUS:
+            recorder.status(data)
+        else:
+            recorder.route(topic, data)
+
+
+def make_recorder(out: Path) -> Recorder:
+    return Recorder(out, dict(TOPICS), chunk_period=5.0, cue_map_period=0.0, clock_period=0.1)
+
+
+def test_a_whole_episode_is_recorded_complete_and_equal_to_the_embedded_run(
+        world_messages, tmp_path):
+    messages, rows = world_messages
+    recorder = make_recorder(tmp_path)
+    feed(recorder, messages)
+    assert recorder.done()  # the final status, poses and map are in: nothing more to wait for
+    closed, _ = recorder.close()
+    assert closed.problems == ()
+    assert recompute(read_episode_bag(closed.path)).rows == rows
+
+
+def test_messages_before_their_announcement_are_filed(world_messages, tmp_path):
+    messages, rows = world_messages
+    first_poses = next(i for i, (topic, _) in enumerate(messages) if topic == POSES)
+    announcement = next(i for i, (topic, _) in enumerate(messages) if topic == EPISODE)
+    early = messages[announcement + 1:first_poses + 3]  # cleaning and poses of t = 0 .. 2 s
+    assert {topic for topic, _ in early} >= {POSES}
+    rest = [m for i, m in enumerate(messages) if not announcement < i < first_poses + 3]
+    recorder = make_recorder(tmp_path)
+    feed(recorder, early)
+    assert recorder.episode is None  # nothing to file them in yet
+    feed(recorder, rest)
+    closed, _ = recorder.close()
+    assert closed.problems == ()
+    assert recompute(read_episode_bag(closed.path)).rows == rows
+
+
+@pytest.mark.parametrize('lose, lacks', [
+    (CLEANING, 'cleaning events'),  # a cleaning event the world counted never arrived
+    (POSES, 'metric samples'),  # the first sampled pose: the t = 1 s sample is missing
+    (STATUS, 'did not report the episode finished'),
+])
+def test_an_incomplete_record_says_what_it_lacks(world_messages, tmp_path, lose, lacks):
+    messages, _ = world_messages
+    if lose == STATUS:  # the last status is the finished one
+        index = max(i for i, (topic, _) in enumerate(messages) if topic == STATUS)
+    else:
+        index = next(i for i, (topic, _) in enumerate(messages) if topic == lose)
+    recorder = make_recorder(tmp_path)
+    feed(recorder, messages[:index] + messages[index + 1:])
+    # What the final status counts is missing: the recorder waits (the node, finish_timeout).
+    assert recorder.done() == (lose == POSES)
+    closed, _ = recorder.close()
+    assert any(lacks in problem for problem in closed.problems), closed.problems
+
+
+def test_float64_is_serialized_as_rclpy_does():
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Float64
+    for value in (0.0, -1.5, 255.0, float('inf')):
+        assert float64_cdr(value) == serialize_message(Float64(data=value))
