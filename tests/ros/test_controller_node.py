@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 from geometry_msgs.msg import TwistStamped
+from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String
 
 from mona_controller import qos
+from mona_controller.contract import Announcement
 from mona_controller.controller import ControllerParams
 from mona_controller.controller_node import ControllerNode, parse_robots
 from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
@@ -44,6 +45,8 @@ class Driver(Node):
             TwistStamped, qos.robot_topic(robot, qos.CMD_VEL), self._on_cmd, qos.COMMAND_QOS)
         self.create_subscription(Bool, qos.robot_topic(robot, qos.CLEANER), self._on_cleaner,
                                  qos.CLEANER_QOS)
+        self.warnings: list[str] = []  # the controller's warnings, from /rosout
+        self.create_subscription(Log, '/rosout', self._on_log, 100)
         self.ground_msg = ground_image(robot)
         self.scan_msg = proximity_scan(robot, MonaParams())
 
@@ -53,6 +56,10 @@ class Driver(Node):
 
     def _on_cleaner(self, msg: Bool, info) -> None:
         self.received.append((info['source_timestamp'], 'cleaner', msg.data))
+
+    def _on_log(self, msg: Log) -> None:
+        if msg.name == f'mona_{self.robot}.mona_controller' and msg.level == Log.WARN:
+            self.warnings.append(msg.msg)
 
     @property
     def answers(self) -> list[tuple[str, object]]:
@@ -64,9 +71,9 @@ class Driver(Node):
                 and self.cmd_sub.get_publisher_count() > 0)
 
     def announce(self, seed: int = 1, episode: int = 0, start_ns: int = START_NS) -> None:
-        self.episode_pub.publish(String(data=json.dumps({
-            'episode': episode, 'seed': seed, 'population': self.robot + 1, 'duration': 10.0,
-            'start_ns': start_ns, 'poses': [[1.0, 1.0, 0.0]] * (self.robot + 1)})))
+        self.episode_pub.publish(String(data=Announcement(
+            episode, seed=seed, population=self.robot + 1, duration=10.0, start_ns=start_ns,
+            poses=((1.0, 1.0, 0.0),) * (self.robot + 1)).to_json()))
 
     def send(self, stamp_ns: int, ground=(0, 0), ranges=NOTHING, is_robot=None) -> None:
         is_robot = np.zeros(len(ranges), dtype=bool) if is_robot is None else is_robot
@@ -148,7 +155,7 @@ def test_meeting_a_robot_stops_and_cleans_and_a_new_episode_resets(pair, spin_un
     assert driver.answers[-2:] == [('cleaner', True), ('cmd', (START_NS, 0.0, 0.0))]
 
     driver.announce(seed=8, episode=1, start_ns=START_NS + 10 * STEP_NS)
-    spin_until(lambda: controller.episode['key'][0] == 1, what='second announcement')
+    spin_until(lambda: controller.episode.episode == 1, what='second announcement')
     driver.send(START_NS + 10 * STEP_NS, ground=(200, 200))
     spin_until(lambda: driver.answered(2), what='answer in episode 1')
     assert driver.answers[-2] == ('cleaner', False)  # following again, not waiting
@@ -176,6 +183,52 @@ def test_bad_sensor_values_give_finite_commands(pair, spin_until):
     assert second[1:] == (0.0, 0.0)
     # The repaired scan still shows the robot in contact (-inf and -1 m became 0 m).
     assert driver.answers[0] == ('cleaner', True)
+
+
+def test_a_repeat_of_an_older_answered_stamp_gets_its_answer_again(pair, spin_until):
+    controller, driver = pair
+    driver.announce()
+    spin_until(lambda: controller.episode is not None, what='announcement')
+    driver.send(START_NS, ground=(200, 100))
+    spin_until(lambda: driver.answered(1), what='first answer')
+    driver.send(START_NS + STEP_NS, ground=(100, 200))
+    spin_until(lambda: driver.answered(2), what='second answer')
+    # The first readings again (a driver resending what it fears lost), with other values.
+    driver.send(START_NS, ground=(0, 255))
+    spin_until(lambda: driver.answered(3), timeout=5.0, what='the older stamp answered again')
+    first, _, repeated = driver.commands()
+    assert repeated == first
+
+
+def test_a_ground_image_of_2_x_1_is_answered_with_a_stop(pair, spin_until):
+    controller, driver = pair
+    driver.announce()
+    spin_until(lambda: controller.episode is not None, what='announcement')
+    driver.ground_msg.height, driver.ground_msg.width, driver.ground_msg.step = 2, 1, 1
+    driver.send(START_NS, ground=(200, 100))
+    spin_until(lambda: driver.answered(1), what='answer')
+    assert driver.answers == [('cleaner', False), ('cmd', (START_NS, 0.0, 0.0))]
+
+
+def test_each_kind_of_bad_input_is_logged(pair, spin_until):
+    controller, driver = pair
+    driver.announce()
+    spin_until(lambda: controller.episode is not None, what='announcement')
+    driver.ground_msg.encoding = 'rgb8'
+    driver.send(START_NS)
+    spin_until(lambda: any('ground' in w for w in driver.warnings), what='bad ground logged')
+    driver.ground_msg.encoding = 'mono8'
+    driver.send(START_NS + STEP_NS, ranges=NOTHING[:2])
+    # Within the 5 s of the ground warning: another kind of bad input is still logged.
+    spin_until(lambda: any('proximity' in w for w in driver.warnings), timeout=3.0,
+               what='bad proximity logged too')
+    # The same kind again within 5 s is answered but not logged again.
+    driver.send(START_NS + 2 * STEP_NS, ranges=NOTHING[:2])
+    spin_until(lambda: driver.answered(3), what='three answers')
+    for _ in range(10):
+        driver.executor.spin_once(timeout_sec=0.02)
+    assert len(driver.warnings) == 2, driver.warnings
+    assert [value[1:] for value in driver.commands()] == [(0.0, 0.0)] * 3
 
 
 def test_robot_ids_and_their_namespace():

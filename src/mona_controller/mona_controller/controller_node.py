@@ -1,27 +1,16 @@
 """The controller node: one Mona's controller behind its ground, proximity and cmd_vel topics.
 
-A thin adapter around :class:`~mona_controller.controller.SwarmController` holding one robot.
-It pairs the ``ground`` and ``proximity`` readings that carry the same stamp and answers each
-pair exactly once: ``cleaner`` first, then ``cmd_vel`` stamped with the readings' stamp. Time
-comes from that stamp, ``now = (stamp_ns - start_ns) / 1e9``, exactly as the embedded runner
-computes it, and the episode announcement on ``/episode`` resets the controller and its random
-generator from ``(seed, robot_id)``.
-
-Run one robot per process (the default)::
-
-    mona_controller_node --ros-args -r __ns:=/mona_3 --params-file mona_swarm.yaml
-    mona_controller_node --robots 3 --ros-args --params-file mona_swarm.yaml
-
-or several robots as separate nodes in one process (fewer DDS participants)::
-
-    mona_controller_node --robots 0-9 --ros-args --params-file mona_swarm.yaml
+A thin adapter: :mod:`~mona_controller.messages` converts the messages,
+:class:`~mona_controller.pairing.ReadingPairs` pairs the readings by stamp and answers repeats,
+a :class:`~mona_controller.controller.SwarmController` of one robot computes new answers at
+``now = (stamp_ns - start_ns) / 1e9``, as the embedded runner does. Each ``/episode`` resets
+it from ``(seed, robot_id)``. ``--robots 0-9`` hosts several robots' nodes in one process.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import re
 import sys
 from collections.abc import Sequence
@@ -38,20 +27,22 @@ from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String
 
 from mona_controller import qos
+from mona_controller.contract import Announcement, ContractError
 from mona_controller.controller import ControllerParams, SwarmController
 from mona_controller.messages import (ReadingError, fill_twist, ground_from_image,
                                       proximity_from_scan, stamp_to_ns)
 from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.pairing import RateLimitedLog, ReadingPairs
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, to_mapping, validate
 from mona_controller.shutdown import teardown
 
-#: Unanswered readings kept per topic while the other half of the pair is on its way.
-PENDING_LIMIT = 16
-#: Wall seconds between repeated warnings about bad input.
-WARN_EVERY = 5.0
 #: Wall seconds between checks that a world (or driver) listens to our commands.
 LISTEN_POLL = 0.02
+
+#: The answer to a pair of readings: (cleaner, linear m/s, angular rad/s).
+Answer = tuple[bool, float, float]
+STOP: Answer = (False, 0.0, 0.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,11 +93,10 @@ class ControllerNode(Node):
         self.controller = SwarmController(self.params, self.mona, [self.robot_id])
 
         self.finished = Future()  #: done when the supervisor announces the shutdown
-        self.episode: dict | None = None  # the current announcement, None before the first
+        self.episode: Announcement | None = None  #: the current episode, None before the first
         self.active = False  # this robot takes part in the current episode
-        self.answered_ns = -1  # the stamp of the last readings answered
-        self.ground: dict[int, np.ndarray | None] = {}  # stamp -> reading (None = malformed)
-        self.scans: dict[int, tuple[np.ndarray, np.ndarray] | None] = {}
+        self.pairs = ReadingPairs(self._answer)  # readings by stamp, None = malformed
+        self.warn = RateLimitedLog(lambda text: self.get_logger().warning(f'bad input: {text}'))
 
         self.cleaner_msg = Bool()
         self.twist_msg = TwistStamped()
@@ -136,36 +126,28 @@ class ControllerNode(Node):
                                  event_callbacks=quiet_sub)
         self.get_logger().info(f'robot {self.robot_id} connected to a world')
 
-    # --- episodes -----------------------------------------------------------------------
-
     def on_episode(self, msg: String) -> None:
         """Reset for a new episode, or finish on the shutdown announcement."""
         try:
-            announcement = json.loads(msg.data)
-            if announcement.get('shutdown'):
-                self.get_logger().info('shutdown announced')
-                if not self.finished.done():
-                    self.finished.set_result(True)
-                return
-            key = (int(announcement['episode']), int(announcement['seed']),
-                   int(announcement['start_ns']))
-            population = int(announcement['population'])
-        except (ValueError, KeyError, TypeError, AttributeError) as error:
-            self.get_logger().error(f'ignoring a malformed /episode announcement ({error!r}): '
-                                    f'{msg.data[:200]}')
+            announcement = Announcement.from_json(msg.data)
+        except ContractError as error:
+            self.get_logger().error(f'ignoring the /episode announcement: {error}')
             return
-        if self.episode is not None and self.episode['key'] == key:
+        if announcement.shutdown:
+            self.get_logger().info('shutdown announced')
+            if not self.finished.done():
+                self.finished.set_result(True)
+            return
+        if self.episode is not None and self.episode.key == announcement.key:
             return  # the same announcement again (e.g. redelivered): keep the state
-        episode, seed, start_ns = key
-        self.episode = {'key': key, 'start_ns': start_ns}
-        self.active = self.robot_id < population
-        self.controller.reset(seed)
-        self.answered_ns = start_ns - 1
-        self._check_parameters(announcement.get('parameters') or {})
-        self.get_logger().info(f'episode {episode}: seed {seed}, start {start_ns} ns, '
+        self.episode = announcement
+        self.active = self.robot_id < announcement.population
+        self.controller.reset(announcement.seed)
+        self._check_parameters(announcement.parameters)
+        self.get_logger().info(f'episode {announcement.episode}: seed {announcement.seed}, '
+                               f'start {announcement.start_ns} ns, '
                                + ('active' if self.active else 'not in this population'))
-        for stamp in sorted(set(self.ground) & set(self.scans)):
-            self._try_answer(stamp)
+        self._publish(self.pairs.start(announcement.start_ns))
 
     def _check_parameters(self, announced: dict) -> None:
         """Warn when the supervisor runs other model parameters than this node."""
@@ -176,76 +158,49 @@ class ControllerNode(Node):
                     f'the episode announces {section} parameters {theirs} but this node runs '
                     f'{to_mapping(mine)}: start every node with the same --params-file')
 
-    # --- readings -----------------------------------------------------------------------
-
     def on_ground(self, msg: Image) -> None:
-        stamp = stamp_to_ns(msg.header.stamp)
         try:
-            self.ground[stamp] = ground_from_image(msg).reshape(1, 2)
+            ground = ground_from_image(msg).reshape(1, 2)
         except ReadingError as error:
-            self._warn(str(error))
-            self.ground[stamp] = None
-        self._try_answer(stamp)
+            self.warn('ground', str(error))
+            ground = None
+        self._publish(self.pairs.add_ground(stamp_to_ns(msg.header.stamp), ground))
 
     def on_proximity(self, msg: LaserScan) -> None:
-        stamp = stamp_to_ns(msg.header.stamp)
         try:
             ranges, is_robot, note = proximity_from_scan(msg, self.mona.ir_count)
             if note:
-                self._warn(note)
-            self.scans[stamp] = (ranges.reshape(1, -1), is_robot.reshape(1, -1))
+                self.warn('repaired', note)
+            scan = (ranges.reshape(1, -1), is_robot.reshape(1, -1))
         except ReadingError as error:
-            self._warn(str(error))
-            self.scans[stamp] = None
-        self._try_answer(stamp)
+            self.warn('proximity', str(error))
+            scan = None
+        self._publish(self.pairs.add_proximity(stamp_to_ns(msg.header.stamp), scan))
 
-    def _try_answer(self, stamp: int) -> None:
-        """Answer the readings of ``stamp`` once both halves are in and an episode is on."""
-        if stamp not in self.ground or stamp not in self.scans:
-            self._trim()
-            return
-        if self.episode is None:
-            self._trim()
-            return  # kept until the announcement arrives
-        ground, scan = self.ground.pop(stamp), self.scans.pop(stamp)
-        self._forget_before(stamp)
-        if not self.active or stamp < self.answered_ns:
-            return  # not in this episode, or readings from before
-        if stamp == self.answered_ns:
-            # The world repeats readings it fears were lost: repeat the answer, do not redo it.
-            if stamp_to_ns(self.twist_msg.header.stamp) == stamp:
-                self.cleaner_pub.publish(self.cleaner_msg)
-                self.cmd_pub.publish(self.twist_msg)
-            return
-        self.answered_ns = stamp
+    def _answer(self, stamp: int, ground: np.ndarray | None,
+                scan: tuple[np.ndarray, np.ndarray] | None) -> Answer | None:
+        """The command for new readings (None: this robot is not in the episode)."""
+        if not self.active:
+            return None
         if ground is None or scan is None:
-            self._publish(stamp, False, 0.0, 0.0)  # unusable readings: hold still
-            return
-        now = (stamp - self.episode['start_ns']) / 1e9
+            return STOP  # unusable readings: hold still
+        now = (stamp - self.episode.start_ns) / 1e9
         command = self.controller.step(ground, scan[0], scan[1], now)
         linear, angular = wheels_to_twist(command.wheels, self.mona)
-        self._publish(stamp, bool(command.cleaner[0]), float(linear[0]), float(angular[0]))
+        return bool(command.cleaner[0]), float(linear[0]), float(angular[0])
 
-    def _publish(self, stamp: int, cleaner: bool, linear: float, angular: float) -> None:
-        self.cleaner_msg.data = cleaner
-        self.cleaner_pub.publish(self.cleaner_msg)
-        if not fill_twist(self.twist_msg, stamp, linear, angular):
-            self._warn(f'non-finite command ({linear}, {angular}) replaced by a stop')
-        self.cmd_pub.publish(self.twist_msg)
-
-    def _forget_before(self, stamp: int) -> None:
-        for pending in (self.ground, self.scans):
-            for old in [s for s in pending if s < stamp]:
-                del pending[old]
-
-    def _trim(self) -> None:
-        """Bound the readings waiting for their pair (a lost half must not pile up)."""
-        for pending in (self.ground, self.scans):
-            while len(pending) > PENDING_LIMIT:
-                del pending[min(pending)]
-
-    def _warn(self, text: str) -> None:
-        self.get_logger().warning(f'bad input: {text}', throttle_duration_sec=WARN_EVERY)
+    def _publish(self, answers: list[tuple[int, Answer | None]]) -> None:
+        """Send each answer: ``cleaner``, then ``cmd_vel`` stamped with the readings' stamp."""
+        for stamp, answer in answers:
+            if answer is None:
+                continue
+            cleaner, linear, angular = answer
+            self.cleaner_msg.data = cleaner
+            self.cleaner_pub.publish(self.cleaner_msg)
+            if not fill_twist(self.twist_msg, stamp, linear, angular):
+                self.warn('command', f'non-finite command ({linear}, {angular}) replaced by a '
+                          'stop')
+            self.cmd_pub.publish(self.twist_msg)
 
 
 def parse_robots(spec: str) -> list[int]:
@@ -279,7 +234,8 @@ def main(args: Sequence[str] | None = None) -> int:
         for robot_id in ids:
             nodes.append(ControllerNode(robot_id))
             executor.add_node(nodes[-1])
-        executor.spin_until_future_complete(all_finished([n.finished for n in nodes]))
+        while not all(node.finished.done() for node in nodes):
+            executor.spin_once()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except ParameterError as error:
@@ -288,21 +244,6 @@ def main(args: Sequence[str] | None = None) -> int:
     finally:
         teardown(nodes)
     return status
-
-
-def all_finished(futures: list[Future]) -> Future:
-    """A future done once every one of ``futures`` is."""
-    done = Future()
-    remaining = [len(futures)]
-
-    def one(_: Future) -> None:
-        remaining[0] -= 1
-        if remaining[0] == 0:
-            done.set_result(True)
-
-    for future in futures:
-        future.add_done_callback(one)
-    return done
 
 
 if __name__ == '__main__':

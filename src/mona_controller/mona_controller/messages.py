@@ -89,7 +89,7 @@ def ground_from_image(msg: Image) -> np.ndarray:
     Raises:
         ReadingError: if it is not a 1 x 2 mono8 image.
     """
-    if msg.encoding != 'mono8' or msg.width * msg.height != 2 or len(msg.data) != 2:
+    if msg.encoding != 'mono8' or (msg.height, msg.width) != (1, 2) or len(msg.data) != 2:
         raise ReadingError(f'ground must be a 1 x 2 mono8 image, got {msg.height} x '
                            f'{msg.width} {msg.encoding!r} with {len(msg.data)} bytes')
     return np.frombuffer(msg.data, dtype=np.uint8)
