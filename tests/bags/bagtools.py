@@ -14,11 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.mona import wheels_to_twist
 from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter, offered_qos
-from swarm_metrics.metrics import sample
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.runner import start_episode
+from swarm_supervisor.episode import Episode
+from swarm_world.timing import crossed
 
 TYPES = TYPESTORE.types
 STRING, FLOAT64 = 'std_msgs/msg/String', 'std_msgs/msg/Float64'
@@ -98,12 +97,10 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
             record: missing seconds, a gap, a lost cleaning event); the rows are unchanged.
         finished: end with the world's ``finished`` /world/status, as the world node does.
     """
-    world, controllers = start_episode(config)
-    sample_ns = round(config.metrics.sample_period * 1e9)
+    episode = Episode(config)
+    world = episode.world
     map_ns = round(map_period * 1e9)
-    centre = config.world.centre
-    rows = [sample(0.0, world.cue, world.initial_mean_cue, world.poses[:, :2], centre,
-                   config.metrics)]
+    rows = [episode.metrics()]
     with EpisodeBagWriter(path, chunk_period=chunk_period) as bag:
         def write(topic: str, log_ns: int, data: bytes) -> None:
             if drop is None or not drop(topic, log_ns):
@@ -118,30 +115,23 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
         for name in METRICS:
             write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
         cleaning_events = 0
-        for _ in range(config.steps()):
-            readings = world.sense()
-            command = controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                       readings.now)
-            before = world.time_ns
-            world.step(*wheels_to_twist(command.wheels, config.mona), command.cleaner)
-            now = start_ns + world.time_ns
-            if len(world.cleaned):
-                write('/world/cleaning', now, pose_array_cdr(world.poses[world.cleaned], now))
+        while not episode.done:
+            step = episode.step()
+            now = start_ns + step.time_ns
+            if len(step.cleaned):
+                write('/world/cleaning', now, pose_array_cdr(world.poses[step.cleaned], now))
                 cleaning_events += 1
-            crossed = world.time_ns // sample_ns > before // sample_ns
-            if crossed or all_poses:
+            if step.sampled or all_poses:
                 write('/world/poses', now, pose_array_cdr(world.poses, now))
-            if crossed:
-                k = world.time_ns // sample_ns
-                rows.append(sample(k * config.metrics.sample_period, world.cue,
-                                   world.initial_mean_cue, world.poses[:, :2], centre,
-                                   config.metrics))
+            if step.sampled:
+                rows.append(episode.metrics())
                 for name in METRICS:
-                    write(f'/metrics/{name}', start_ns + k * sample_ns,
+                    write(f'/metrics/{name}',
+                          start_ns + step.time_ns // episode.sample_ns * episode.sample_ns,
                           float_cdr(rows[-1][name]))
                 write('/world/status', now, string_cdr(json.dumps(
                     {'episode': 0, 'state': 'running', 'time_ns': now})))
-            if world.time_ns // map_ns > before // map_ns:
+            if crossed(step.before_ns, step.time_ns, map_ns):
                 write('/world/cue_map', now, image_cdr(world.cue, now))
         if finished:
             end = start_ns + world.time_ns

@@ -22,6 +22,7 @@ from swarm_metrics.bag_reader import BagError, EpisodeBag
 from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
 from swarm_world import cue as cue_field
 from swarm_world.params import WorldParams
+from swarm_world.timing import crossed
 from swarm_world.world import clean_under
 
 #: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
@@ -125,8 +126,8 @@ class MetricsReplica:
 
     def due(self, time_ns: int) -> bool:
         """True if a pose stamped ``time_ns`` is the first at or after a sample boundary."""
-        start, period = self.setup.start_ns, self.setup.sample_ns
-        return (time_ns - start) // period > (self._last_pose_ns - start) // period
+        start = self.setup.start_ns
+        return crossed(self._last_pose_ns - start, time_ns - start, self.setup.sample_ns)
 
     def pose(self, time_ns: int,
              poses: np.ndarray | None) -> tuple[list[tuple[int, dict]], bool]:

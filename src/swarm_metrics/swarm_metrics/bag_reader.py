@@ -31,7 +31,9 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, ChunkIndex, Header, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import breakup_chunk
 
+from mona_controller.contract import CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES, STATUS
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
+from swarm_world.timing import crossed
 
 MAGIC = b'\x89MCAP0\r\n'
 (HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, MESSAGE_INDEX, CHUNK_INDEX, ATTACHMENT,
@@ -41,11 +43,6 @@ _DATA_RECORDS = {MESSAGE_INDEX, ATTACHMENT, METADATA}
 _SUMMARY_RECORDS = {SCHEMA, CHANNEL, ATTACHMENT_INDEX, METADATA_INDEX, SUMMARY_OFFSET, METADATA}
 #: No chunk we write comes near this; a larger claim is damage, not a reason to allocate.
 MAX_CHUNK_BYTES = 256 * 2**20
-
-# Topics of docs/interfaces.md that the analysis reads.
-EPISODE, STATUS, POSES, CLEANING, CUE_MAP = ('/episode', '/world/status', '/world/poses',
-                                             '/world/cleaning', '/world/cue_map')
-METRICS_PREFIX = '/metrics/'
 
 
 class BagError(Exception):
@@ -147,7 +144,7 @@ class McapScan:
         head = handle.read(9)
         if len(head) < 9:
             self._fail(f'the file ends at byte {offset}' + (
-                f' inside a record header' if head else ' without the MCAP summary and footer'),
+                ' inside a record header' if head else ' without the MCAP summary and footer'),
                 truncated=True)
             return None
         opcode, length = struct.unpack('<BQ', head)
@@ -450,10 +447,9 @@ def read_episode_bag(path: str | Path) -> EpisodeBag:
             # A pose is kept if it is the first at or after a sample boundary (the rule the
             # metrics node samples and decimates by); until the announcement, keep them all.
             if sample_ns is not None:
-                crossed = ((message.log_time - start_ns) // sample_ns
-                           > (previous - start_ns) // sample_ns)
+                due = crossed(previous - start_ns, message.log_time - start_ns, sample_ns)
                 previous = message.log_time
-                if not crossed:
+                if not due:
                     continue
             bag.poses.append((message.log_time, poses_of(decode(message))))
         elif topic == CLEANING:

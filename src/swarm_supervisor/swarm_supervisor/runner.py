@@ -9,10 +9,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from mona_controller.controller import SwarmController
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.episode import Episode
-from swarm_world.world import World
 
 
 @dataclasses.dataclass
@@ -33,13 +31,6 @@ class EpisodeResult:
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second."""
         return self.steps * self.config.world.step_period / max(self.wall_time, 1e-9)
-
-
-def start_episode(config: SwarmConfig) -> tuple[World, SwarmController]:
-    """The world and the controllers of a fresh :class:`Episode` (for callers that step the
-    parts themselves; prefer the Episode)."""
-    episode = Episode(config)
-    return episode.world, episode.controllers
 
 
 def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),

@@ -1,7 +1,7 @@
 """The supervisor node: places the robots and runs the episodes of a ros run.
 
 For episode k it derives ``seed_k = episode.seed + k``, places the robots from that seed
-(:mod:`swarm_supervisor.placement`, as the embedded runner does), announces the episode on
+(:func:`swarm_supervisor.episode.place_swarm`, as the embedded runner does), announces the episode on
 ``/episode`` and waits until the world reports it finished and every expected recorder
 (``recorders``) reports its record of it closed and complete. After the last episode it
 announces the shutdown, which ends the world and every controller node.
@@ -39,7 +39,8 @@ from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.placement import PlacementError, place_robots, placement_rng
+from swarm_supervisor.episode import place_swarm
+from swarm_supervisor.placement import PlacementError
 
 RUN_FILE = 'run.json'
 #: Wall seconds without a world node before a running episode counts as failed.
@@ -144,8 +145,7 @@ class Supervisor(Node):
             episode = int(self.announcement.get('episode', -1)) + 1
         config = self.config.replace(episode={'seed': seed})
         try:
-            poses = place_robots(config.episode.population, config.world.arena_side,
-                                 config.mona.body_radius, placement_rng(seed))
+            poses = place_swarm(config, seed)
         except PlacementError as error:
             raise ParameterError(str(error)) from None
         self.announcement = {
