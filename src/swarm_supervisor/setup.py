@@ -9,6 +9,9 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        # The default parameter file (a link to ros_ws/config/mona_swarm.yaml), so that an
+        # installed package finds it without the source tree.
+        ('share/' + package_name + '/config', ['config/mona_swarm.yaml']),
     ],
     install_requires=['numpy', 'PyYAML', 'tqdm', 'matplotlib', 'statsmodels', 'pandas', 'mona_controller', 'swarm_world', 'swarm_metrics'],
     zip_safe=True,

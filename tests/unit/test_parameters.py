@@ -75,3 +75,17 @@ def test_parameter_reference_matches_the_schema():
     assert page.read_text() == render(), (
         'docs/parameters.md is stale: run python -m swarm_supervisor.paramdoc > '
         'docs/parameters.md')
+
+
+def test_the_default_file_is_found_installed_and_its_absence_is_an_error(tmp_path, monkeypatch):
+    from swarm_supervisor import config as config_module
+    monkeypatch.setattr(config_module, 'DEFAULT_CONFIG', tmp_path / 'no_source_tree.yaml')
+    monkeypatch.setattr(config_module.sys, 'prefix', str(tmp_path / 'venv'))
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path / 'colcon_install'))
+    with pytest.raises(ParameterError, match='default parameter file mona_swarm.yaml is missing'):
+        config_module.load_config()
+    installed = tmp_path / 'colcon_install' / config_module.INSTALLED_CONFIG
+    installed.parent.mkdir(parents=True)
+    write_ros_yaml(SwarmConfig().replace(episode={'seed': 77}), installed)
+    assert config_module.default_config_path() == installed
+    assert config_module.load_config().episode.seed == 77

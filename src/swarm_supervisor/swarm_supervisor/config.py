@@ -12,6 +12,8 @@ The file is a ROS 2 parameter file whose ``/**`` wildcard section holds every pa
 from __future__ import annotations
 
 import dataclasses
+import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +27,30 @@ from swarm_world.params import WorldParams
 from swarm_world.timing import steps_for
 
 #: The parameter file shipped with the project.
+#: The shipped parameter file in the source tree (ros_ws/config/mona_swarm.yaml).
 DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / 'ros_ws' / 'config' / 'mona_swarm.yaml'
+#: Where an installed swarm_supervisor keeps its copy, below an install prefix.
+INSTALLED_CONFIG = Path('share') / 'swarm_supervisor' / 'config' / 'mona_swarm.yaml'
+
+
+def default_config_path() -> Path:
+    """The default parameter file: the source tree's, else the installed package's (below this
+    Python's prefix, or a colcon workspace on AMENT_PREFIX_PATH).
+
+    Raises:
+        ParameterError: none is there (silently falling back to built-in defaults would run
+            other parameters than the file a user edits).
+    """
+    prefixes = [Path(sys.prefix), *(Path(p) for p in
+                                     os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)
+                                     if p)]
+    candidates = [DEFAULT_CONFIG, *(prefix / INSTALLED_CONFIG for prefix in prefixes)]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise ParameterError('the default parameter file mona_swarm.yaml is missing (looked in '
+                         + ', '.join(str(c) for c in candidates) + '); reinstall the '
+                         'packages or pass a parameter file (--config)')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,11 +132,7 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
     Raises:
         ParameterError: the file is missing, not YAML, or holds an unknown or bad parameter.
     """
-    if path is None:
-        if not DEFAULT_CONFIG.exists():  # installed without the source tree
-            return SwarmConfig()
-        path = DEFAULT_CONFIG
-    path = Path(path)
+    path = default_config_path() if path is None else Path(path)
     try:
         document = yaml.safe_load(path.read_text())
     except OSError as error:
