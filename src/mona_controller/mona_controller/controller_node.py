@@ -227,7 +227,7 @@ def main(args: Sequence[str] | None = None) -> int:
     options = parser.parse_args(argv)
     logger = rclpy.logging.get_logger('mona_controller')
     nodes: list[ControllerNode] = []
-    status = 0
+    status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         ids = parse_robots(options.robots) if options.robots else [None]
         executor = SingleThreadedExecutor()
@@ -236,13 +236,14 @@ def main(args: Sequence[str] | None = None) -> int:
             executor.add_node(nodes[-1])
         while not all(node.finished.done() for node in nodes):
             executor.spin_once()
+        status = 0
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        status = 0
     except ParameterError as error:
         logger.fatal(f'bad parameter: {error}')
         status = 2
     finally:
-        teardown(nodes)
+        teardown(nodes, exit_status=status)
     return status
 
 

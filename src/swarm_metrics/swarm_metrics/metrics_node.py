@@ -291,20 +291,20 @@ def main(args: list[str] | None = None) -> int:
     """Run the metrics node until the shutdown announcement, a signal or a lost world."""
     rclpy.init(args=args)
     node = None
-    status = 0
+    status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         node = MetricsNode()
         rclpy.spin_until_future_complete(node, node.done)
         status = node.done.result() if node.done.done() else 0
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        status = 0
     except ParameterError as error:
         rclpy.logging.get_logger('metrics').fatal(f'bad parameter: {error}')
         status = 2
     finally:
         if node is not None:
             node.close('the node is stopping', publish=False)  # durable before teardown
-        teardown([node])
+        teardown([node], exit_status=status)
     return status
 
 

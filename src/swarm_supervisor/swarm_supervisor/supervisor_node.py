@@ -253,11 +253,12 @@ def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``supervisor_node [--ros-args ...]``: 0 once every episode finished."""
     rclpy.init(args=args)
     node = None
-    status = 0
+    status = 1  # an exception that escapes is a failure, also if teardown then hangs
     logger = rclpy.logging.get_logger('supervisor')
     try:
         node = Supervisor()
         node.run()
+        status = 0
     except (KeyboardInterrupt, ExternalShutdownException):
         status = 130
     except ParameterError as error:
@@ -267,7 +268,7 @@ def main(args: Sequence[str] | None = None) -> int:
         logger.fatal(str(error))
         status = 1
     finally:
-        teardown([node])
+        teardown([node], exit_status=status)  # run.json is written: durable
     return status
 
 
