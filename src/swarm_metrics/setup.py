@@ -10,11 +10,11 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
     ],
-    install_requires=['numpy', 'rosbags', 'mcap', 'swarm_world'],
+    install_requires=['numpy', 'PyYAML', 'rosbags', 'mcap', 'mona_controller', 'swarm_world'],
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
-    description='The study metrics, rosbag2/MCAP bag writing and reading, plus the metrics node.',
+    description='The metrics, recording and checking episodes (rosbag2/MCAP bags), plus the metrics node.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from swarm_metrics.anova import TABLE_COLUMNS, anova, time_levels, write_anova
+from swarm_supervisor.anova import TABLE_COLUMNS, anova, time_levels, write_anova
 
 
 def synthetic_table(seed: int, *, population_effect: float, speed_effect: float,

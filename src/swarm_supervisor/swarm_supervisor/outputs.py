@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from swarm_metrics.metrics import COLUMNS
-from swarm_metrics.plots import save_cue_map
+from swarm_supervisor.plots import save_cue_map
 from swarm_supervisor import __version__
 from swarm_supervisor.runner import EpisodeResult
 

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from swarm_metrics import anova as anova_tables
-from swarm_metrics import figures
+from swarm_supervisor import anova as anova_tables
+from swarm_supervisor import figures
 from swarm_metrics.completeness import Finding
 from swarm_supervisor import __version__, outputs, study
 

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from swarm_metrics.plots import draw_cue_map  # noqa: E402
+from swarm_supervisor.plots import draw_cue_map  # noqa: E402
 
 FIG3 = 'fig3_cue_maps.png'
 FIG4 = 'fig4_mean_cue.png'
