@@ -89,7 +89,7 @@ class Observer(Node):
     def announce(self, steps: int) -> None:
         self.episode_pub.publish(String(data=json.dumps({
             'episode': 0, 'seed': 11, 'population': len(POSES), 'duration': steps * 0.032,
-            'start_ns': START_NS, 'poses': POSES})))
+            'start_ns': START_NS, 'poses': POSES, 'parameters': {}})))
 
 
 def start(executor, script: Script, tmp_path, **options) -> tuple[WorldNode, ScriptedRobots,
@@ -162,7 +162,7 @@ def test_a_silent_robot_becomes_absent_and_rejoins_when_it_answers(executor, spi
                                     absent_after=2)
     seen: dict[int, tuple[list[int], list[int]]] = {}
     robots.on_step = lambda step: seen.setdefault(
-        step, (world.misses.tolist(), np.flatnonzero(world.absent).tolist()))
+        step, (world.lockstep.misses.tolist(), world.lockstep.counters()['absent']))
     observer.announce(steps=12)
     spin_until(lambda: finished(observer), what='episode finished')
 

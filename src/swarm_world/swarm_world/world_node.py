@@ -1,25 +1,17 @@
 """The world node: the simulated arena behind the per-robot topics of docs/interfaces.md.
 
-A thin adapter around :class:`~swarm_world.world.World`. It waits for an episode announcement
-on ``/episode``, resets the world at the announced poses, waits until every robot's controller
-is connected, then steps:
-
-- **lockstep**: publish every robot's readings stamped ``start_ns + k * step_ns``, wait for
-  each robot's ``cmd_vel`` with exactly that stamp (or ``lockstep_deadline`` wall seconds),
-  then step the physics. A robot that missed holds still for the step; after
-  ``absent_after`` consecutive misses it is marked absent and no longer waited for (a dead
-  controller costs one deadline, not one per step) until it answers again.
-- **realtime**: step every ``step_period`` of wall time with each robot's latest command.
-
-It publishes /clock, the ground-truth poses, the cleaning events, the cue map and grid, robot
-markers and /world/status, and with ``output_dir`` writes each episode's final state.
+Messages in, two pure cores, messages out: :class:`~swarm_world.world.World` is the arena,
+:class:`~swarm_world.lockstep.Lockstep` the rounds with the controllers (which command counts,
+misses, absent robots). On each ``/episode`` announcement the node resets the world, waits for
+every robot's controller and every recorder, then steps in lockstep or realtime. It publishes
+/clock, the ground-truth poses, the cleaning events, the cue map and grid, robot markers and
+/world/status, and with ``output_dir`` writes each episode's final state.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import os
 import sys
 from collections.abc import Sequence
@@ -41,8 +33,8 @@ from std_msgs.msg import Bool, String
 from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
-from mona_controller.contract import (ContractError, RecorderBook, RecorderReport, WorldState,
-                                      recorder_names)
+from mona_controller.contract import (Announcement, ContractError, RecorderBook, RecorderReport,
+                                      WorldState, recorder_names)
 from mona_controller.messages import (PoseArrayFiller, cue_grid, cue_image, fill_readings,
                                       ground_image, proximity_scan, robot_markers, set_stamp,
                                       stamp_to_ns)
@@ -50,7 +42,9 @@ from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, to_mapping, validate
 from mona_controller.shutdown import teardown
+from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldParams
+from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
 
 FINAL_FILE = 'world_final.npz'
@@ -94,16 +88,6 @@ class WorldNodeParams:
 
     def __post_init__(self) -> None:
         validate(self)
-
-
-class Ticker:
-    """Says when a sim-time period boundary is crossed (period 0: always)."""
-
-    def __init__(self, period_s: float) -> None:
-        self.period_ns = round(period_s * 1e9)
-
-    def crossed(self, before_ns: int, after_ns: int) -> bool:
-        return self.period_ns == 0 or after_ns // self.period_ns > before_ns // self.period_ns
 
 
 class RobotLink:
@@ -183,26 +167,25 @@ class WorldNode(Node):
         self.poses_filler = PoseArrayFiller()
         self.cleaning_filler = PoseArrayFiller()
         self.clock_msg = ClockMsg()
-        self.clock_tick = Ticker(self.options.clock_period)
-        self.map_tick = Ticker(self.options.map_period)
-        self.status_tick = Ticker(self.options.status_period)
+        self.clock_ns = round(self.options.clock_period * 1e9)  # publishing periods
+        self.map_ns = round(self.options.map_period * 1e9)
+        self.status_ns = round(self.options.status_period * 1e9)
 
         self.links: list[RobotLink] = []
         self.episode = -1
-        self.announcement: dict = {}
+        self.announcement: Announcement | None = None
         self.state = WorldState.WAITING
         self.error = ''
         self.start_ns = 0  # absolute sim time of the episode's step 0
         self.time_ns = 0  # absolute sim time now (monotonic across episodes)
         self.total_steps = 0
-        self.expected_ns = -1  # the stamp the current lockstep round waits for
-        self._reset_counters(0)
+        self.lockstep = Lockstep(0, 0, self.options.absent_after, self.params.step_ns)
+        self.cleaning_events = 0  # /world/cleaning messages of this episode
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
         self.resend_timer = None  # lockstep, step 0 only
         self.hold_timer = None  # lockstep: a recorder fell behind
         self.held_since = None
-        self._round_step = 0  # the step whose commands the current lockstep round awaits
         self.deadline_period = 0.0
         self.publish_status()
         self.get_logger().info(f'world ready ({self.options.mode}), waiting for an episode')
@@ -212,64 +195,54 @@ class WorldNode(Node):
     def on_episode(self, msg: String) -> None:
         """Start the announced episode, or finish on the shutdown announcement."""
         try:
-            announcement = json.loads(msg.data)
-            if announcement.get('shutdown'):
-                self.get_logger().info('shutdown announced')
-                self._stop_timers()
-                if not self.finished.done():
-                    self.finished.set_result(True)
-                return
-            episode = int(announcement['episode'])
-            population = int(announcement['population'])
-            poses = np.asarray(announcement['poses'], dtype=np.float64).reshape(-1, 3)
-            start_ns = int(announcement['start_ns'])
-            duration = float(announcement['duration'])
-            seed = int(announcement['seed'])
-        except (ValueError, KeyError, TypeError, AttributeError) as error:
-            self.get_logger().error(f'ignoring a malformed /episode announcement ({error!r}): '
-                                    f'{msg.data[:200]}')
+            announcement = Announcement.from_json(msg.data)
+        except ContractError as error:
+            self.get_logger().error(f'ignoring /episode: {error}')
             return
-        key = (episode, seed, start_ns)
-        if self.announcement.get('key') == key:
+        if announcement.shutdown:
+            self.get_logger().info('shutdown announced')
+            self._stop_timers()
+            if not self.finished.done():
+                self.finished.set_result(True)
+            return
+        if self.announcement is not None and self.announcement.key == announcement.key:
             return  # redelivered
-        problem = self._check_announcement(population, poses, start_ns, duration,
-                                           announcement.get('parameters') or {})
+        problem = self._check_announcement(announcement)
         self._stop_timers()
-        self.announcement = {'key': key, 'seed': seed, 'duration': duration}
-        self.episode = episode
+        self.announcement = announcement
+        self.episode = announcement.episode
         if problem:
-            self.fail(f'episode {episode} rejected: {problem}', fatal=False)
+            self.fail(f'episode {self.episode} rejected: {problem}', fatal=False)
             return
-        self.world.reset(poses)
-        self.start_ns = self.time_ns = start_ns
-        self.total_steps = math.ceil(round(duration * 1e9) / self.params.step_ns)
-        self._reset_counters(population)
+        population = announcement.population
+        self.world.reset(np.array(announcement.poses))
+        self.start_ns = self.time_ns = announcement.start_ns
+        self.total_steps = steps_for(announcement.duration, self.params.step_ns)
+        self.lockstep = Lockstep(population, self.start_ns, self.options.absent_after,
+                                 self.params.step_ns)
+        self.cleaning_events = 0
         while len(self.links) < population:
             self.links.append(RobotLink(self, len(self.links), self.mona, self.on_cleaner,
                                         self.on_cmd))
         self.state = WorldState.WAITING
         self.error = ''
         self.publish_status()
-        self.get_logger().info(f'episode {episode}: {population} robots, seed {seed}, '
-                               f'{self.total_steps} steps from {start_ns} ns; waiting for '
-                               'the controllers')
+        self.get_logger().info(f'episode {self.episode}: {population} robots, seed '
+                               f'{announcement.seed}, {self.total_steps} steps from '
+                               f'{self.start_ns} ns; waiting for the controllers')
         self.connect_started = self.wall.now()
         self.connect_timer = self.create_timer(0.05, self._wait_for_controllers,
                                                clock=self.wall)
 
-    def _check_announcement(self, population: int, poses: np.ndarray, start_ns: int,
-                            duration: float, parameters: dict) -> str:
-        if population < 1 or len(poses) != population:
-            return f'population {population} but {len(poses)} poses'
-        if not np.isfinite(poses).all():
-            return 'the poses are not all finite'
-        if not (duration > 0 and math.isfinite(duration)):
-            return f'duration {duration} s is not positive'
-        if start_ns < self.time_ns:
-            return (f'start_ns {start_ns} is before the world time {self.time_ns}: sim time '
-                    'must not run backwards')
+    def _check_announcement(self, announcement: Announcement) -> str:
+        """What this world cannot play of a well-formed announcement ('' = nothing)."""
+        if announcement.population < 1:
+            return 'no robots'
+        if announcement.start_ns < self.time_ns:
+            return (f'start_ns {announcement.start_ns} is before the world time '
+                    f'{self.time_ns}: sim time must not run backwards')
         for section, mine in (('world', self.params), ('mona', self.mona)):
-            theirs = parameters.get(section)
+            theirs = announcement.parameters.get(section)
             if theirs is not None and theirs != to_mapping(mine):
                 return (f'the announced {section} parameters {theirs} differ from the world '
                         f'node\'s {to_mapping(mine)}: start every node with the same '
@@ -336,12 +309,12 @@ class WorldNode(Node):
     def _finish(self) -> None:
         self._stop_timers()
         self.state = WorldState.FINISHED
-        self.expected_ns = -1
         self.publish_map()
         self.publish_status()
         self._write_final()
         self.get_logger().info(f'episode {self.episode} finished at {self.time_ns} ns; '
-                               f'misses {int(self.misses.sum())}, dropped {self.dropped}')
+                               f'misses {int(self.lockstep.misses.sum())}, dropped '
+                               f'{self.lockstep.dropped}')
 
     def fail(self, error: str, fatal: bool = True) -> None:
         """Report an error on /world/status; a fatal one ends the node with status 1."""
@@ -362,55 +335,23 @@ class WorldNode(Node):
         self.connect_timer = self.step_timer = self.resend_timer = self.hold_timer = None
         self.held_since = None
 
-    def _reset_counters(self, n: int) -> None:
-        self.linear = np.zeros(n)
-        self.angular = np.zeros(n)
-        self.cleaner = np.zeros(n, dtype=bool)  # the latest Bool from each robot
-        self.answered = np.zeros(n, dtype=bool)  # this round
-        self.command_ns = np.full(n, -1, dtype=np.int64)  # stamp of each latest command
-        self.misses = np.zeros(n, dtype=np.int64)
-        self.consecutive = np.zeros(n, dtype=np.int64)
-        self.absent = np.zeros(n, dtype=bool)
-        self.dropped = 0
-        self.duplicates = 0
-        self.pending = 0
-        self.cleaning_events = 0  # /world/cleaning messages of this episode
-
     # --- commands -----------------------------------------------------------------------
 
     def on_cleaner(self, robot_id: int, msg: Bool) -> None:
-        if robot_id < len(self.cleaner):
-            self.cleaner[robot_id] = msg.data
+        self.lockstep.set_cleaner(robot_id, msg.data)
 
     def on_cmd(self, robot_id: int, msg: TwistStamped) -> None:
-        if self.state is not WorldState.RUNNING or robot_id >= len(self.answered):
+        if self.state is not WorldState.RUNNING:
             return
         stamp = stamp_to_ns(msg.header.stamp)
         linear, angular = msg.twist.linear.x, msg.twist.angular.z
-        if not (math.isfinite(linear) and math.isfinite(angular)):
-            linear = angular = 0.0  # a broken controller must not break the physics
         if self.options.mode == 'realtime':
-            if stamp >= self.command_ns[robot_id]:
-                self.command_ns[robot_id] = stamp
-                self.linear[robot_id], self.angular[robot_id] = linear, angular
+            self.lockstep.keep_latest(robot_id, stamp, linear, angular)
             return
-        if self.absent[robot_id] and self.start_ns <= stamp <= self.expected_ns:
-            self.absent[robot_id] = False  # it answers again: wait for it from now on
-            self.consecutive[robot_id] = 0
+        answer = self.lockstep.answer(robot_id, stamp, linear, angular)
+        if answer.rejoined:
             self.get_logger().info(f'robot {robot_id} is back at step {self.world.steps}')
-            if stamp == self.expected_ns:
-                self.pending += 1  # counted as waited for, answered just below
-        if stamp != self.expected_ns:
-            self.dropped += 1
-            return
-        if self.answered[robot_id]:
-            self.duplicates += 1
-            return
-        self.answered[robot_id] = True
-        self.linear[robot_id], self.angular[robot_id] = linear, angular
-        self.consecutive[robot_id] = 0
-        self.pending -= 1
-        if self.pending == 0:
+        if answer.complete:
             self._advance()
 
     def on_deadline(self) -> None:
@@ -418,21 +359,18 @@ class WorldNode(Node):
         # The executor runs ready timers before ready subscriptions: on a stalled machine the
         # deadline can fire with the commands already waiting. Take those first, so a round
         # is missed only when its commands really did not come.
-        for i in np.flatnonzero(~self.answered & ~self.absent):
+        stamp = self.lockstep.expected_ns
+        for i in self.lockstep.waiting():
             self.links[i].take_waiting()
-            if self.expected_ns < 0 or self.world.steps != self._round_step:
+            if not self.lockstep.open or self.lockstep.expected_ns != stamp:
                 return  # the round completed on a command just taken
-        late = np.flatnonzero(~self.answered & ~self.absent)
-        self.misses[late] += 1
-        self.consecutive[late] += 1
+        late, gone = self.lockstep.deadline()
         if len(late):
             self.get_logger().warning(
                 f'step {self.world.steps}: no command from robots {late.tolist()} within '
                 f'{self.deadline_period:g} s; they hold still',
                 throttle_duration_sec=5.0)
-        gone = late[self.consecutive[late] >= self.options.absent_after]
         if len(gone):
-            self.absent[gone] = True
             self.get_logger().warning(
                 f'robots {gone.tolist()} missed {self.options.absent_after} steps in a row: '
                 'absent, no longer waited for until they answer again')
@@ -447,12 +385,7 @@ class WorldNode(Node):
             return
         if self._held_by_recorders():
             return
-        self._round_step = self.world.steps
-        self.answered[:] = False
-        self.linear[:] = 0.0
-        self.angular[:] = 0.0
-        self.expected_ns = self.time_ns
-        self.pending = int(np.count_nonzero(~self.absent))
+        self.lockstep.start_round(self.time_ns)
         # Step 0 may wait as long as connecting may take (new DDS matches can hold the first
         # messages back); later rounds wait lockstep_deadline.
         first = self.world.steps == 0
@@ -503,7 +436,7 @@ class WorldNode(Node):
         self.deadline_period = period
 
     def _resend(self) -> None:
-        for i in np.flatnonzero(~self.answered & ~self.absent):
+        for i in self.lockstep.waiting():
             self.links[i].resend()
 
     def _advance(self) -> None:
@@ -511,42 +444,36 @@ class WorldNode(Node):
         if self.resend_timer is not None:
             self.destroy_timer(self.resend_timer)
             self.resend_timer = None
-        cleaner = self.cleaner & ~self.absent  # an absent robot does not clean
-        self._step(cleaner)
+        self._step()
         self._start_round()
 
     def on_realtime_tick(self) -> None:
         """Realtime: step with each robot's latest command; stale ones hold still."""
-        stale = self.command_ns < self.time_ns - self.options.absent_after * self.params.step_ns
-        self.misses[self.command_ns < self.expected_ns] += 1
-        self.absent = stale
-        self.linear[stale] = 0.0
-        self.angular[stale] = 0.0
-        self._step(self.cleaner & ~stale)
+        self.lockstep.realtime_step(self.time_ns)
+        self._step()
         if self.world.steps >= self.total_steps:
             self._finish()
             return
         self._publish_readings()
 
-    def _step(self, cleaner: np.ndarray) -> None:
+    def _step(self) -> None:
         before = self.time_ns
-        self.world.step(self.linear, self.angular, cleaner)
+        self.world.step(*self.lockstep.commands())
         self.time_ns = self.start_ns + self.world.time_ns
         if len(self.world.cleaned):
             self.cleaning_pub.publish(self.cleaning_filler.fill(
                 self.world.poses[self.world.cleaned], self.time_ns))
             self.cleaning_events += 1
-        if self.clock_tick.crossed(before, self.time_ns):
+        if crossed(before, self.time_ns, self.clock_ns):
             self.publish_clock()
         relative_before, relative = before - self.start_ns, self.world.time_ns
-        if self.map_tick.crossed(relative_before, relative):
+        if crossed(relative_before, relative, self.map_ns):
             self.publish_map()
-        if self.status_tick.crossed(relative_before, relative):
+        if crossed(relative_before, relative, self.status_ns):
             self.publish_status()
 
     def _publish_readings(self) -> None:
         readings = self.world.sense()
-        self.expected_ns = self.time_ns
         self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
         for link, ground, ranges, is_robot in zip(self.links, readings.ground, readings.ranges,
                                                   readings.is_robot):
@@ -566,16 +493,12 @@ class WorldNode(Node):
         if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
             self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
 
-    def status(self) -> dict:
-        """The /world/status document."""
-        return {'episode': self.episode, 'state': self.state.value, 'step': self.world.steps,
-                'steps': self.total_steps, 'time_ns': self.time_ns, 'mode': self.options.mode,
-                'misses': self.misses.tolist(), 'absent': np.flatnonzero(self.absent).tolist(),
-                'dropped': self.dropped, 'duplicates': self.duplicates,
-                'cleaning_events': self.cleaning_events, 'error': self.error}
-
     def publish_status(self) -> None:
-        self.status_pub.publish(String(data=json.dumps(self.status())))
+        self.status_pub.publish(String(data=json.dumps({
+            'episode': self.episode, 'state': self.state.value, 'step': self.world.steps,
+            'steps': self.total_steps, 'time_ns': self.time_ns, 'mode': self.options.mode,
+            **self.lockstep.counters(), 'cleaning_events': self.cleaning_events,
+            'error': self.error})))
 
     def _write_final(self) -> None:
         """<output_dir>/episode_<k>/world_final.npz: the final state, for parity checks."""
@@ -585,9 +508,10 @@ class WorldNode(Node):
         folder.mkdir(parents=True, exist_ok=True)
         partial_path = folder / (FINAL_FILE + '.partial.npz')
         np.savez(partial_path, poses=self.world.poses.astype(np.float64),
-                 cue=self.world.cue.astype(np.float32), misses=self.misses,
-                 dropped=np.int64(self.dropped), duplicates=np.int64(self.duplicates),
-                 seed=np.int64(self.announcement['seed']), episode=np.int64(self.episode),
+                 cue=self.world.cue.astype(np.float32), misses=self.lockstep.misses,
+                 dropped=np.int64(self.lockstep.dropped),
+                 duplicates=np.int64(self.lockstep.duplicates),
+                 seed=np.int64(self.announcement.seed), episode=np.int64(self.episode),
                  steps=np.int64(self.world.steps), time_ns=np.int64(self.time_ns),
                  start_ns=np.int64(self.start_ns),
                  parameters=json.dumps({'world': to_mapping(self.params),
