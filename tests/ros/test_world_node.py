@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -37,6 +38,7 @@ class ScriptedRobots(Node):
         self.script = script
         self.steps_seen: list[int] = []
         self.on_step: Callable[[int], None] = lambda step: None
+        self.on_answered: Callable[[int, int], None] = lambda robot, step: None
         self.cmd_pubs, self.cleaner_pubs = [], []
         for i in range(population):
             self.cleaner_pubs.append(self.create_publisher(
@@ -67,6 +69,7 @@ class ScriptedRobots(Node):
             twist = TwistStamped()
             fill_twist(twist, stamp + offset * STEP_NS, linear, 0.0)
             self.cmd_pubs[robot].publish(twist)
+        self.on_answered(robot, step)
 
 
 class Observer(Node):
@@ -194,3 +197,23 @@ def test_realtime_steps_on_the_wall_clock_with_the_latest_commands(executor, spi
     assert final['poses'][0, 0] > POSES[0][0] + 0.001  # drove forward (+x)
     assert np.array_equal(final['poses'][1], POSES[1])  # no command: held still
     assert observer.status['absent'] == [1] and observer.status['misses'][1] == 16
+
+
+def test_a_deadline_after_a_stall_takes_the_answers_already_waiting(executor, spin_until,
+                                                                   tmp_path):
+    """The executor runs a ready timer before ready subscriptions: after a stall longer than
+    the deadline, the answers of the round are waiting when the deadline fires. They count."""
+    def script(robot: int, step: int) -> list[tuple[int, float]]:
+        return [(0, 0.05)]
+
+    world, robots, observer = start(executor, script, tmp_path, lockstep_deadline=0.3)
+    # Both robots answer step 2, then the process stalls past the deadline (as a swapped-out
+    # process would) before the world's callbacks run again.
+    robots.on_answered = lambda robot, step: time.sleep(0.8) if (robot, step) == (1, 2) else None
+    observer.announce(steps=5)
+    spin_until(lambda: finished(observer), what='episode finished')
+
+    assert observer.status['misses'] == [0, 0]
+    expected = replay(world, [[0.05, 0.05]] * 5)
+    for step, pose in enumerate(expected):
+        assert np.array_equal(observer.poses[step], pose), step

@@ -61,8 +61,11 @@ def stop_metrics_node(run: SwarmRun, moment: str) -> int:
 @pytest.mark.parametrize('moment', ['late', 'startup', 'announcement', 'running'])
 def test_stalled_metrics_node_is_waited_for_and_its_bag_is_complete(swarm, moment):
     seed = 20 + ['late', 'startup', 'announcement', 'running'].index(moment)
+    # While running, the world must catch up with the stopped recorder even on a machine so
+    # loaded that it steps 0.5 s of sim time per wall second: a 2 s lag instead of 10 s.
+    lag = ['-p', 'recorder_lag:=2.0'] if moment == 'running' else []
     run = swarm('--population', str(POPULATION), '--duration', str(DURATION),
-                '--seed', str(seed))
+                '--seed', str(seed), *lag)
     pid = stop_metrics_node(run, moment)
     time.sleep(STALL)
     os.kill(pid, signal.SIGCONT)

@@ -523,18 +523,18 @@ def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``world_node [--ros-args ...]``; exits when the run is over."""
     rclpy.init(args=args)
     node = None
-    status = 0
+    status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         node = WorldNode()
         rclpy.spin_until_future_complete(node, node.finished)
         status = node.exit_status
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        status = 0
     except ParameterError as error:
         rclpy.logging.get_logger('world').fatal(f'bad parameter: {error}')
         status = 2
     finally:
-        teardown([node])
+        teardown([node], exit_status=status)  # world_final.npz is written when it finishes
     return status
 
 
