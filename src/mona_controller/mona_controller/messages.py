@@ -1,7 +1,7 @@
-"""Conversions between the core's arrays and the ROS messages of docs/interfaces.md.
+"""Conversions between the core's arrays and the per-robot messages of docs/interfaces.md.
 
 The world node (or a real Mona driver) builds sensor messages here and the controller node
-reads them back; both sides go through these functions, so values cross the wire unchanged:
+reads them back; (the world's own topics: :mod:`swarm_world.world_messages`); both sides go through these functions, so values cross the wire unchanged:
 ground readings as uint8, IR ranges as float32, stamps as integer nanoseconds.
 
 Readings coming in from the outside are untrusted: :func:`ground_from_image` and
@@ -17,18 +17,14 @@ import math
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Pose, PoseArray, TwistStamped
-from nav_msgs.msg import OccupancyGrid
+from geometry_msgs.msg import TwistStamped
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import ColorRGBA
-from visualization_msgs.msg import Marker, MarkerArray
 
+from mona_controller.contract import base_frame
 from mona_controller.mona import MonaParams
-from mona_controller.qos import WORLD_FRAME, base_frame
 
 #: A range this much beyond ``range_max`` (relative) counts as 'nothing in range'.
 RANGE_TOLERANCE = 1e-4
-MARKER_HEIGHT = 0.05  # m, the drawn height of a robot cylinder
 
 
 class ReadingError(ValueError):
@@ -141,102 +137,3 @@ def fill_twist(msg: TwistStamped, stamp_ns: int, linear: float, angular: float) 
     msg.twist.linear.x = float(linear) if ok else 0.0
     msg.twist.angular.z = float(angular) if ok else 0.0
     return ok
-
-
-def twist_of(msg: TwistStamped) -> tuple[int, float, float]:
-    """(stamp ns, linear m/s, angular rad/s) of a ``cmd_vel``."""
-    return stamp_to_ns(msg.header.stamp), msg.twist.linear.x, msg.twist.angular.z
-
-
-# --- poses --------------------------------------------------------------------------------
-
-class PoseArrayFiller:
-    """Reuses one PoseArray (and its Pose objects) for [N, 3] poses, yaw in the quaternion."""
-
-    def __init__(self, frame_id: str = WORLD_FRAME) -> None:
-        self.msg = PoseArray()
-        self.msg.header.frame_id = frame_id
-        self._spare: list[Pose] = []
-
-    def fill(self, poses: np.ndarray, stamp_ns: int) -> PoseArray:
-        """The message for ``poses`` [N, 3] (x m, y m, yaw rad) at ``stamp_ns``."""
-        n = len(poses)
-        while len(self._spare) < n:
-            self._spare.append(Pose())
-        half = poses[:, 2] * 0.5
-        rows = np.column_stack((poses[:, 0], poses[:, 1], np.sin(half), np.cos(half))).tolist()
-        for pose, (x, y, qz, qw) in zip(self._spare, rows):
-            pose.position.x = x
-            pose.position.y = y
-            pose.orientation.z = qz
-            pose.orientation.w = qw
-        self.msg.poses = self._spare[:n]
-        set_stamp(self.msg.header.stamp, stamp_ns)
-        return self.msg
-
-
-def poses_from_pose_array(msg: PoseArray) -> np.ndarray:
-    """[N, 3] float64 (x, y, yaw) from a PoseArray (yaw from a z-axis quaternion)."""
-    out = np.empty((len(msg.poses), 3))
-    for k, pose in enumerate(msg.poses):
-        q = pose.orientation
-        out[k] = (pose.position.x, pose.position.y, 2.0 * math.atan2(q.z, q.w))
-    return out
-
-
-# --- the cue map ------------------------------------------------------------------------
-
-def cue_to_mono8(cue: np.ndarray) -> np.ndarray:
-    """The cue raster as uint8, rounded like the ground sensors read it (row 0 at y = 0)."""
-    return np.clip(np.rint(cue), 0, 255).astype(np.uint8)
-
-
-def cue_image(cue: np.ndarray, stamp_ns: int) -> Image:
-    """The cue as a mono8 Image, row 0 at the **top** (max y), as image viewers expect."""
-    rows, cols = cue.shape
-    msg = Image(height=rows, width=cols, encoding='mono8', is_bigendian=0, step=cols)
-    msg.header.frame_id = WORLD_FRAME
-    msg.header.stamp = ns_to_stamp(stamp_ns)
-    msg.data = array.array('B', cue_to_mono8(cue)[::-1].tobytes())
-    return msg
-
-
-def cue_from_image(msg: Image) -> np.ndarray:
-    """The uint8 raster of a ``/world/cue_map`` image, back in core order (row 0 at y = 0)."""
-    data = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
-    return data[::-1, :msg.width].copy()
-
-
-def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
-    """The cue as an OccupancyGrid scaled to 0..100, origin at the world origin."""
-    rows, cols = cue.shape
-    msg = OccupancyGrid()
-    msg.header.frame_id = WORLD_FRAME
-    msg.header.stamp = ns_to_stamp(stamp_ns)
-    msg.info.map_load_time = msg.header.stamp
-    msg.info.resolution = float(cell_size)
-    msg.info.width, msg.info.height = cols, rows
-    msg.info.origin.orientation.w = 1.0
-    scaled = np.clip(np.rint(cue.astype(np.float64) * (100.0 / 255.0)), 0, 100).astype(np.int8)
-    msg.data = array.array('b', scaled.tobytes())
-    return msg
-
-
-def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
-                  stamp_ns: int) -> MarkerArray:
-    """One cylinder per robot, green while moving, red while cleaning."""
-    out = MarkerArray()
-    stamp = ns_to_stamp(stamp_ns)
-    green, red = ColorRGBA(g=0.8, a=1.0), ColorRGBA(r=0.9, a=1.0)
-    for k, (x, y, _) in enumerate(poses.tolist()):
-        marker = Marker(ns='robots', id=k, type=Marker.CYLINDER, action=Marker.ADD)
-        marker.header.frame_id = WORLD_FRAME
-        marker.header.stamp = stamp
-        marker.pose.position.x, marker.pose.position.y = x, y
-        marker.pose.position.z = MARKER_HEIGHT / 2
-        marker.pose.orientation.w = 1.0
-        marker.scale.x = marker.scale.y = 2 * body_radius
-        marker.scale.z = MARKER_HEIGHT
-        marker.color = red if k < len(cleaning) and cleaning[k] else green
-        out.markers.append(marker)
-    return out

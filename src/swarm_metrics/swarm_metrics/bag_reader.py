@@ -33,6 +33,7 @@ from mcap.stream_reader import breakup_chunk
 
 from mona_controller.contract import CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES, STATUS
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
+from swarm_world.frames import poses_from_rows
 from swarm_world.timing import crossed
 
 MAGIC = b'\x89MCAP0\r\n'
@@ -360,14 +361,9 @@ def decode_json(message: RawMessage) -> dict:
 
 
 def poses_of(msg: Any) -> np.ndarray:
-    """[N, 3] float64 (x, y, yaw) of a geometry_msgs/PoseArray (yaw of a z-axis quaternion).
-
-    The same formula as ``mona_controller.messages.poses_from_pose_array``, without ROS.
-    """
-    values = np.array([(p.position.x, p.position.y, p.orientation.z, p.orientation.w)
-                       for p in msg.poses], dtype=np.float64).reshape(-1, 4)
-    return np.column_stack((values[:, 0], values[:, 1],
-                            2.0 * np.arctan2(values[:, 2], values[:, 3])))
+    """[N, 3] float64 (x, y, yaw) of a geometry_msgs/PoseArray (yaw of a z-axis quaternion)."""
+    return poses_from_rows([(p.position.x, p.position.y, p.orientation.z, p.orientation.w)
+                            for p in msg.poses])
 
 
 def cue_of(msg: Any) -> np.ndarray:

@@ -35,8 +35,7 @@ from visualization_msgs.msg import MarkerArray
 from mona_controller import qos
 from mona_controller.contract import (Announcement, ContractError, RecorderBook, RecorderReport,
                                       WorldState, recorder_names)
-from mona_controller.messages import (PoseArrayFiller, cue_grid, cue_image, fill_readings,
-                                      ground_image, proximity_scan, robot_markers, set_stamp,
+from mona_controller.messages import (fill_readings, ground_image, proximity_scan, set_stamp,
                                       stamp_to_ns)
 from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
@@ -46,6 +45,7 @@ from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
+from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, robot_markers
 
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.

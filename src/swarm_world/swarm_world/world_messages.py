@@ -1,0 +1,111 @@
+"""Conversions of the world's own topics (docs/interfaces.md, "World"): poses, cue map and
+grid, robot markers. The per-robot messages are :mod:`mona_controller.messages`.
+"""
+
+from __future__ import annotations
+
+import array
+
+import numpy as np
+from geometry_msgs.msg import Pose, PoseArray
+from nav_msgs.msg import OccupancyGrid
+from sensor_msgs.msg import Image
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from mona_controller.contract import WORLD_FRAME
+from mona_controller.messages import ns_to_stamp, set_stamp
+from swarm_world.frames import poses_from_rows, yaw_to_quaternion
+
+MARKER_HEIGHT = 0.05  # m, the drawn height of a robot cylinder
+
+
+# --- poses --------------------------------------------------------------------------------
+
+class PoseArrayFiller:
+    """Reuses one PoseArray (and its Pose objects) for [N, 3] poses, yaw in the quaternion."""
+
+    def __init__(self, frame_id: str = WORLD_FRAME) -> None:
+        self.msg = PoseArray()
+        self.msg.header.frame_id = frame_id
+        self._spare: list[Pose] = []
+
+    def fill(self, poses: np.ndarray, stamp_ns: int) -> PoseArray:
+        """The message for ``poses`` [N, 3] (x m, y m, yaw rad) at ``stamp_ns``."""
+        n = len(poses)
+        while len(self._spare) < n:
+            self._spare.append(Pose())
+        qz, qw = yaw_to_quaternion(poses[:, 2])
+        rows = np.column_stack((poses[:, 0], poses[:, 1], qz, qw)).tolist()
+        for pose, (x, y, qz, qw) in zip(self._spare, rows):
+            pose.position.x = x
+            pose.position.y = y
+            pose.orientation.z = qz
+            pose.orientation.w = qw
+        self.msg.poses = self._spare[:n]
+        set_stamp(self.msg.header.stamp, stamp_ns)
+        return self.msg
+
+
+def poses_from_pose_array(msg: PoseArray) -> np.ndarray:
+    """[N, 3] float64 (x, y, yaw) from a PoseArray (yaw from a z-axis quaternion)."""
+    return poses_from_rows([(p.position.x, p.position.y, p.orientation.z, p.orientation.w)
+                            for p in msg.poses])
+
+
+# --- the cue map ------------------------------------------------------------------------
+
+def cue_to_mono8(cue: np.ndarray) -> np.ndarray:
+    """The cue raster as uint8, rounded like the ground sensors read it (row 0 at y = 0)."""
+    return np.clip(np.rint(cue), 0, 255).astype(np.uint8)
+
+
+def cue_image(cue: np.ndarray, stamp_ns: int) -> Image:
+    """The cue as a mono8 Image, row 0 at the **top** (max y), as image viewers expect."""
+    rows, cols = cue.shape
+    msg = Image(height=rows, width=cols, encoding='mono8', is_bigendian=0, step=cols)
+    msg.header.frame_id = WORLD_FRAME
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.data = array.array('B', cue_to_mono8(cue)[::-1].tobytes())
+    return msg
+
+
+def cue_from_image(msg: Image) -> np.ndarray:
+    """The uint8 raster of a ``/world/cue_map`` image, back in core order (row 0 at y = 0)."""
+    data = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
+    return data[::-1, :msg.width].copy()
+
+
+def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
+    """The cue as an OccupancyGrid scaled to 0..100, origin at the world origin."""
+    rows, cols = cue.shape
+    msg = OccupancyGrid()
+    msg.header.frame_id = WORLD_FRAME
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.info.map_load_time = msg.header.stamp
+    msg.info.resolution = float(cell_size)
+    msg.info.width, msg.info.height = cols, rows
+    msg.info.origin.orientation.w = 1.0
+    scaled = np.clip(np.rint(cue.astype(np.float64) * (100.0 / 255.0)), 0, 100).astype(np.int8)
+    msg.data = array.array('b', scaled.tobytes())
+    return msg
+
+
+def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
+                  stamp_ns: int) -> MarkerArray:
+    """One cylinder per robot, green while moving, red while cleaning."""
+    out = MarkerArray()
+    stamp = ns_to_stamp(stamp_ns)
+    green, red = ColorRGBA(g=0.8, a=1.0), ColorRGBA(r=0.9, a=1.0)
+    for k, (x, y, _) in enumerate(poses.tolist()):
+        marker = Marker(ns='robots', id=k, type=Marker.CYLINDER, action=Marker.ADD)
+        marker.header.frame_id = WORLD_FRAME
+        marker.header.stamp = stamp
+        marker.pose.position.x, marker.pose.position.y = x, y
+        marker.pose.position.z = MARKER_HEIGHT / 2
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = marker.scale.y = 2 * body_radius
+        marker.scale.z = MARKER_HEIGHT
+        marker.color = red if k < len(cleaning) and cleaning[k] else green
+        out.markers.append(marker)
+    return out
