@@ -25,17 +25,14 @@ import tempfile
 import time
 from pathlib import Path
 
+import pingpong  # bench/, next to this file
 import rclpy
+from mona_controller import qos
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
+from swarm_supervisor.processes import private_domain, ros_environment
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / 'tests'))
-sys.path.insert(0, str(REPO / 'bench'))
-
-import pingpong  # noqa: E402
-from harness import private_domain, ros_environment  # noqa: E402
-from mona_controller import qos  # noqa: E402
 
 
 class StatusWatch:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import (REPO, domain_shm_files, group_pids, mapped_shm, remove_shm_leftovers,
+from harness import (REPO, domain_shm_files, groups_shm, mapped_shm, remove_shm_leftovers,
                      shm_files, stop_group)
 
 SWARM = REPO / 'scripts' / 'swarm.sh'
@@ -101,8 +101,7 @@ class SwarmRun:
 
     def note_shm(self) -> set[str]:
         """Add the /dev/shm files the run's live nodes map now to :attr:`seen_shm`."""
-        for pgid in self.nodes().values():
-            self.seen_shm |= mapped_shm(group_pids(pgid))
+        self.seen_shm |= groups_shm(list(self.nodes().values()))
         return self.seen_shm
 
     def shm_leftovers(self) -> set[str]:

@@ -1,0 +1,215 @@
+"""The launcher of the node system without ROS: options, overrides, controller processes, the
+domain lock and the signal ladder (swarm_supervisor.launch and .processes)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from mona_controller.schema import ParameterError
+from swarm_supervisor import launch
+from swarm_supervisor.config import DEFAULT_CONFIG
+from swarm_supervisor.processes import (claim_domain, group_pids, lock_domain,
+                                        ros_environment, start_group, stop_group, stop_groups)
+
+
+def options(*argv: str):
+    return launch.build_parser().parse_args(list(argv))
+
+
+def test_defaults():
+    parsed = options()
+    assert (parsed.episodes, parsed.mode, parsed.per_process, parsed.timeout) == \
+        (1, 'lockstep', 1, 0)
+    assert parsed.config == DEFAULT_CONFIG and parsed.params == []
+    assert parsed.population is None and parsed.start_timeout is None
+
+
+@pytest.mark.parametrize('argv, option', [
+    (['--population', 'x'], '--population'),
+    (['--population', '-1'], '--population'),
+    (['--speed', 'fast'], '--speed'),
+    (['--episodes', '0'], '--episodes'),
+    (['--duration', 'nan'], '--duration'),
+    (['--seed', '1.5'], '--seed'),
+    (['--mode', 'fast'], '--mode'),
+    (['--config', '/no/such.yaml'], '--config'),
+    (['--controllers-per-process', '0'], '--controllers-per-process'),
+    (['--timeout', '2.5'], '--timeout'),
+    (['--start-timeout', '0'], '--start-timeout'),
+    (['-p', 'controller.speed=0.1'], '-p'),
+    (['--popul', '3'], '--popul'),  # no abbreviations: every option is spelled out
+    (['--timeout'], '--timeout'),
+])
+def test_a_bad_option_is_named(argv, option):
+    with pytest.raises(launch.UsageError, match=option):
+        options(*argv)
+
+
+def test_overrides_come_from_the_options_then_p():
+    parsed = options('--population', '5', '--speed', '8', '--duration', '60', '--seed', '3',
+                     '-p', 'lockstep_deadline:=0.5', '-p', 'controller.alpha:=2.0')
+    assert launch.run_overrides(parsed) == [
+        'episode.population:=5', 'episode.duration:=60.0', 'episode.seed:=3',
+        'controller.speed:=0.08', 'lockstep_deadline:=0.5', 'controller.alpha:=2.0']
+
+
+def test_overrides_are_checked_with_the_schema():
+    config = launch.check_parameters(DEFAULT_CONFIG, [
+        'episode.population:=7', 'controller.speed:=0.04', 'lockstep_deadline:=0.5'])
+    assert (config.episode.population, config.controller.speed) == (7, 0.04)
+    with pytest.raises(ParameterError, match=r'controller.speed = 3.0 is out of range'):
+        launch.check_parameters(DEFAULT_CONFIG, ['controller.speed:=3.0'])
+    with pytest.raises(ParameterError, match='controller.nope'):
+        launch.check_parameters(DEFAULT_CONFIG, ['controller.nope:=1'])
+    with pytest.raises(ParameterError, match='episode.population = 0'):
+        launch.check_parameters(DEFAULT_CONFIG, ['episode.population:=0'])
+    with pytest.raises(ParameterError, match='episode.seed'):
+        launch.check_parameters(DEFAULT_CONFIG, ['episode.seed:=[1'])
+
+
+def test_a_bad_parameter_exits_2_before_anything_starts(tmp_path: Path, capsys):
+    out = tmp_path / 'never'
+    assert launch.main(['--speed', '300', '--out', str(out)]) == 2
+    assert 'swarm.sh: bad parameter: controller.speed = 3.0 is out of range' in \
+        capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize('population, per_process, groups', [
+    (5, 1, ['0', '1', '2', '3', '4']),
+    (10, 4, ['0-3', '4-7', '8-9']),
+    (3, 5, ['0-2']),
+    (7, 3, ['0-2', '3-5', '6']),
+    (1, 1, ['0']),
+])
+def test_controller_groups(population, per_process, groups):
+    assert launch.controller_groups(population, per_process) == groups
+
+
+def test_each_node_gets_the_parameters_and_its_own_options():
+    parsed = options('--population', '3', '--episodes', '2', '--controllers-per-process', '2',
+                     '-p', 'clock_period:=1.0')
+    out = Path('/results/run')
+    executables = {kind: f'/bin/{kind}' for kind in launch.EXECUTABLES}
+    commands = launch.node_commands(parsed, 3, out, executables)
+    assert list(commands) == ['world', 'metrics', 'controller_0-1', 'controller_2',
+                              'supervisor']
+    common = ['--ros-args', '--params-file', str(DEFAULT_CONFIG),
+              '-p', 'episode.population:=3', '-p', 'clock_period:=1.0']
+    assert commands['world'] == ['/bin/world', *common, '-p', 'mode:=lockstep',
+                                 '-p', f'output_dir:={out}', '-p', 'start_timeout:=60.0',
+                                 '-p', 'recorders:=metrics']
+    assert commands['metrics'] == ['/bin/metrics', *common, '-p', f'output_dir:={out}']
+    assert commands['controller_0-1'] == ['/bin/controller', '--robots', '0-1', *common]
+    assert commands['supervisor'] == ['/bin/supervisor', *common, '-p', 'episodes:=2',
+                                      '-p', f'output_dir:={out}', '-p', 'recorders:=metrics']
+    # The world's patience grows with the swarm, unless given.
+    many = launch.node_commands(options('--population', '40'), 40, out, executables)
+    assert 'start_timeout:=120.0' in many['world']
+    given = launch.node_commands(options('--start-timeout', '5'), 40, out, executables)
+    assert 'start_timeout:=5.0' in given['world']
+
+
+def test_last_error_is_the_message_of_the_last_error_line(tmp_path: Path):
+    log = tmp_path / 'world.log'
+    log.write_text('[ERROR] [1.0] [world]: first\n[INFO] [2.0] [world]: fine\n'
+                   '[FATAL] [3.0] [world]: episode 0: the recorder(s) metrics did not confirm\n'
+                   'Traceback ...\n')
+    assert launch.last_error(log) == 'episode 0: the recorder(s) metrics did not confirm'
+    assert launch.last_error(tmp_path / 'missing.log') == ''
+
+
+def test_the_domain_lock_excludes_a_second_holder_and_is_inherited(tmp_path: Path):
+    domain, handle = claim_domain()
+    try:
+        assert lock_domain(domain) is None  # a second holder, even in this process
+        child = start_group([sys.executable, '-c', 'import time; time.sleep(60)'],
+                            tmp_path / 'child.log', ros_environment(domain),
+                            pass_fds=(handle.fileno(),))
+    finally:
+        handle.close()
+    try:
+        assert lock_domain(domain) is None  # the child holds it on
+    finally:
+        stop_group(child, grace=5.0)
+    again = lock_domain(domain)
+    assert again is not None
+    again.close()
+
+
+def started(tmp_path: Path, code: str, name: str = 'node') -> tuple:
+    """A Python child in its own group, once it printed 'ready'; (process, its log)."""
+    log = tmp_path / f'{name}.log'
+    process = start_group([sys.executable, '-c', code], log, ros_environment(0))
+    deadline = time.monotonic() + 60
+    while 'ready' not in log.read_text():
+        assert process.poll() is None and time.monotonic() < deadline, log.read_text()
+        time.sleep(0.05)
+    return process, log
+
+
+IGNORE = ('import signal, time\n'
+          'for name in {signals}: signal.signal(getattr(signal, name), signal.SIG_IGN)\n'
+          'print("ready", flush=True)\n'
+          'time.sleep(60)\n')
+
+
+def test_the_ladder_sends_sigterm_to_a_node_that_ignores_sigint(tmp_path: Path):
+    process, _ = started(tmp_path, IGNORE.format(signals=['SIGINT']))
+    said: list[str] = []
+    needed = stop_groups([process], grace=1.0, say=said.append)
+    assert needed == {process.pid: signal.SIGTERM}
+    assert process.returncode == -signal.SIGTERM
+    assert said == ['SIGTERM to 1 process(es) still running 1 s after SIGINT']
+
+
+def test_sigabrt_writes_the_stack_of_a_node_deaf_to_sigint_and_sigterm(tmp_path: Path):
+    process, log = started(tmp_path, IGNORE.format(signals=['SIGINT', 'SIGTERM']))
+    said: list[str] = []
+    needed = stop_groups([process], grace=0.5, say=said.append)
+    assert needed == {process.pid: signal.SIGABRT}
+    assert process.returncode == -signal.SIGABRT
+    assert said[-1] == ('SIGABRT to 1 process(es) still running 5 s after SIGTERM '
+                        '(stacks in their logs)')
+    assert 'Fatal Python error: Aborted' in log.read_text()  # PYTHONFAULTHANDLER=1
+
+
+def test_a_node_runs_in_its_own_group_with_sigint_and_no_core(tmp_path: Path):
+    # As a background job of a script would: start it with SIGINT ignored here.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        process = start_group(['sleep', '60'], tmp_path / 'sleep.log', ros_environment(0))
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    try:
+        status = Path(f'/proc/{process.pid}/status').read_text()
+        ignored = int(next(line for line in status.splitlines()
+                           if line.startswith('SigIgn:')).split()[1], 16)
+        assert not ignored & (1 << (signal.SIGINT - 1))
+        limits = Path(f'/proc/{process.pid}/limits').read_text()
+        assert next(line for line in limits.splitlines()
+                    if line.startswith('Max core file size')).split()[4] == '0'
+        assert group_pids(process.pid) == [process.pid]
+    finally:
+        assert stop_group(process) == -signal.SIGINT
+
+
+def test_the_ladder_clears_a_group_whose_leader_ended(tmp_path: Path):
+    # The leader ends on SIGINT; its child (started by sh in the background, SIGINT ignored)
+    # would live on in the group.
+    process = start_group(['sh', '-c', 'sleep 60 & echo ready; exec sleep 60'],
+                          tmp_path / 'sh.log', ros_environment(0))
+    deadline = time.monotonic() + 30
+    while len(group_pids(process.pid)) < 2:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    assert stop_groups([process], grace=5.0) == {process.pid: signal.SIGINT}
+    deadline = time.monotonic() + 10
+    while group_pids(process.pid):
+        assert time.monotonic() < deadline, group_pids(process.pid)
+        time.sleep(0.05)
