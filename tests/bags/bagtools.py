@@ -135,6 +135,8 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
                 write('/world/cue_map', now, image_cdr(world.cue, now))
         if finished:
             end = start_ns + world.time_ns
+            if not crossed(world.time_ns - 1, world.time_ns, map_ns):
+                write('/world/cue_map', end, image_cdr(world.cue, end))  # the world's last map
             write('/world/status', end, string_cdr(json.dumps(
                 finished_status(config, config.steps(), end, cleaning_events))))
     return rows

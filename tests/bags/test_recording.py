@@ -95,3 +95,17 @@ def test_float64_is_serialized_as_rclpy_does():
     from std_msgs.msg import Float64
     for value in (0.0, -1.5, 255.0, float('inf')):
         assert float64_cdr(value) == serialize_message(Float64(data=value))
+
+
+def test_an_episode_that_ends_between_sample_times_is_complete(tmp_path):
+    """5 s is 156.25 steps of 32 ms: the world steps to 5.024 s, past the announced end."""
+    config = CONFIG.replace(episode={'duration': 5.0})
+    rows = embedded_episode_bag(tmp_path / 'source', config, map_period=4.0)
+    recorder = make_recorder(tmp_path / 'out')
+    feed(recorder, [(m.topic, m.data) for m in McapScan(find_mcap(tmp_path / 'source'))
+                    if not m.topic.startswith('/metrics/')])
+    assert recorder.done()
+    closed, _ = recorder.close()
+    assert closed.problems == ()
+    assert [row['t'] for row in rows] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    assert recompute(read_episode_bag(closed.path)).rows == rows

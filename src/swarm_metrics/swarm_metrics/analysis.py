@@ -22,7 +22,7 @@ from swarm_metrics.bag_reader import BagError, EpisodeBag
 from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
 from swarm_world import cue as cue_field
 from swarm_world.params import WorldParams
-from swarm_world.timing import crossed
+from swarm_world.timing import crossed, steps_for
 from swarm_world.world import clean_under
 
 #: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
@@ -88,8 +88,10 @@ class EpisodeSetup:
 
     @property
     def end_ns(self) -> int:
-        """Sim time at which the episode ends."""
-        return self.start_ns + round(self.duration * 1e9)
+        """Sim time at which the episode ends: after its last whole step (the duration rounded
+        up to whole steps, as the world steps it)."""
+        step_ns = self.world.step_ns
+        return self.start_ns + steps_for(self.duration, step_ns) * step_ns
 
 
 class MetricsReplica:
