@@ -16,12 +16,12 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 from swarm_metrics.bag_reader import BagError, read_episode_bag
 from swarm_metrics.completeness import check_bag
 from swarm_supervisor.config import load_config
+from swarm_supervisor.processes import busy_cores
 from swarm_supervisor.runner import run_episode
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,19 +43,6 @@ def check_episode(bag: Path, seed: int, population: int, duration: float) -> tup
     return not findings, equal
 
 
-@contextlib.contextmanager
-def busy_loops(count: int) -> Iterator[None]:
-    """``count`` spinning processes for the duration of the block."""
-    loops = [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
-             for _ in range(count)]
-    try:
-        yield
-    finally:
-        for loop in loops:
-            loop.kill()
-            loop.wait()
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--runs', type=int, default=10)
@@ -71,7 +58,7 @@ def main() -> int:
     print(f'{args.runs} runs of N = {args.population}, {args.episodes} x {args.duration:g} s, '
           f'{args.busy} busy loops; output {out}')
     print('run  exit  wall_s  episodes complete  equal to embedded')
-    with busy_loops(args.busy):
+    with busy_cores(args.busy) if args.busy else contextlib.nullcontext():
         for run in range(args.runs):
             seed = args.seed + 10 * run
             folder = out / f'run_{run}'

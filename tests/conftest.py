@@ -20,8 +20,8 @@ from pathlib import Path
 
 import pytest
 
-import harness
 from harness import Processes, private_domain, ros_environment
+from swarm_supervisor.processes import busy_cores as busy_loops
 
 
 @pytest.fixture
@@ -49,5 +49,5 @@ def processes(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Processes]:
 @pytest.fixture
 def busy_cores() -> Iterator[None]:
     """Every core busy for the duration of the test (bounded, stopped afterwards)."""
-    with harness.busy_cores():
+    with busy_loops():
         yield

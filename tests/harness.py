@@ -5,11 +5,7 @@ scripts/swarm.sh runs (swarm_supervisor.processes); tests/conftest.py wraps it i
 
 from __future__ import annotations
 
-import contextlib
-import os
 import subprocess
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
@@ -52,21 +48,3 @@ class Processes:
         self.note_shm()
         stop_groups(self.started, grace=10.0)
         return remove_shm_leftovers(int(self.env['ROS_DOMAIN_ID']), self.seen_shm)
-
-
-@contextlib.contextmanager
-def busy_cores(count: int | None = None, limit: float = 900.0) -> Iterator[None]:
-    """Keep ``count`` cores (default: all) busy with spinning processes during the block.
-
-    The loops end with the block, and by themselves after ``limit`` seconds whatever happens
-    to the test, so a crashed run cannot leave a machine loaded.
-    """
-    spin = f'import time\nend = time.monotonic() + {limit}\nwhile time.monotonic() < end: pass'
-    loops = [subprocess.Popen([sys.executable, '-c', spin])
-             for _ in range(count or os.cpu_count() or 1)]
-    try:
-        yield
-    finally:
-        for loop in loops:
-            loop.kill()
-            loop.wait()

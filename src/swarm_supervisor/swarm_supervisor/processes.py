@@ -259,3 +259,22 @@ def remove_shm_leftovers(domain: int, seen: set[str] = frozenset()) -> list[str]
         with contextlib.suppress(FileNotFoundError):
             (SHM / name).unlink()
     return leftovers
+
+
+@contextlib.contextmanager
+def busy_cores(count: int | None = None, limit: float = 900.0) -> Iterator[None]:
+    """Keep ``count`` cores (default: all) busy with spinning processes during the block.
+
+    A busy machine (CI, other users) shows races a quiet one hides: the tests and the soak
+    benchmark use this. The loops end with the block, and by themselves after ``limit``
+    seconds whatever happens to the caller, so a crashed run cannot leave a machine loaded.
+    """
+    spin = f'import time\nend = time.monotonic() + {limit}\nwhile time.monotonic() < end: pass'
+    loops = [subprocess.Popen([sys.executable, '-c', spin])
+             for _ in range(count or os.cpu_count() or 1)]
+    try:
+        yield
+    finally:
+        for loop in loops:
+            loop.kill()
+            loop.wait()
