@@ -419,12 +419,12 @@ def main() -> None:
                         help='seconds between "all matched" and the start file')
     parser.add_argument('--lease', type=float, metavar='S',
                         help='stress: a participant lease of S seconds instead of the '
-                             'profile\'s (Fast DDS default 20 s); checked more often, more '
+                             "profile's (Fast DDS default 20 s); checked more often, more "
                              'hangs')
     parser.add_argument('--native-stacks', type=float, metavar='S',
                         help='attach gdb to every process still tearing down S seconds after '
-                             'the start, write its threads\' native stacks (with --keep)')
-    parser.add_argument('--keep', type=Path, help='keep every round\'s logs in this folder')
+                             "the start, write its threads' native stacks (with --keep)")
+    parser.add_argument('--keep', type=Path, help="keep every round's logs in this folder")
     # The node processes.
     parser.add_argument('--worker', type=int, help=argparse.SUPPRESS)
     parser.add_argument('--variant', help=argparse.SUPPRESS)

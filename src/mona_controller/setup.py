@@ -14,7 +14,9 @@ setup(
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
-    description='The Mona controller: gradient following and BEECLUST stop-and-clean, plus its ROS node.',
+    description=(
+        'The Mona controller: gradient following and BEECLUST stop-and-clean, plus its '
+        'ROS node.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -14,7 +14,9 @@ setup(
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
-    description='The metrics, recording and checking episodes (rosbag2/MCAP bags), plus the metrics node.',
+    description=(
+        'The metrics, recording and checking episodes (rosbag2/MCAP bags), plus the '
+        'metrics node.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

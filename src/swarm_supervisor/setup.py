@@ -13,11 +13,23 @@ setup(
         # installed package finds it without the source tree.
         ('share/' + package_name + '/config', ['config/mona_swarm.yaml']),
     ],
-    install_requires=['numpy', 'PyYAML', 'tqdm', 'matplotlib', 'statsmodels', 'pandas', 'mona_controller', 'swarm_world', 'swarm_metrics'],
+    install_requires=[
+        'numpy',
+        'PyYAML',
+        'tqdm',
+        'matplotlib',
+        'statsmodels',
+        'pandas',
+        'mona_controller',
+        'swarm_world',
+        'swarm_metrics',
+    ],
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
-    description='Placement, episodes, the embedded runner, the study and the mona-swarm CLI, plus the supervisor node.',
+    description=(
+        'Placement, episodes, the embedded runner, the study and the mona-swarm CLI, plus '
+        'the supervisor node.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

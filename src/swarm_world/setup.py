@@ -14,7 +14,9 @@ setup(
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
-    description='The simulated world: arena, cue field, pymunk physics, Mona sensors, plus the world node.',
+    description=(
+        'The simulated world: arena, cue field, pymunk physics, Mona sensors, plus the '
+        'world node.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

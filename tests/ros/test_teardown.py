@@ -19,7 +19,7 @@ pytestmark = pytest.mark.ros
 #: The watchdog of the probe, s: short, so a hung probe ends in a few seconds.
 TIMEOUT = 1.5
 
-PROBE = '''
+PROBE = """
 import ctypes, os, sys, threading, time
 import rclpy
 from mona_controller.shutdown import teardown
@@ -44,7 +44,7 @@ else:
     teardown([node], timeout, exit_status=status)
 print('teardown returned', flush=True)
 sys.exit(status)
-'''
+"""
 
 
 def run_probe(processes, mode: str, status: int) -> tuple[int, float, str]:

@@ -1,8 +1,9 @@
 """Conversions between the core's arrays and the per-robot messages of docs/interfaces.md.
 
 The world node (or a real Mona driver) builds sensor messages here and the controller node
-reads them back; (the world's own topics: :mod:`swarm_world.world_messages`); both sides go through these functions, so values cross the wire unchanged:
-ground readings as uint8, IR ranges as float32, stamps as integer nanoseconds.
+reads them back; both sides go through these functions, so values cross the wire unchanged:
+ground readings as uint8, IR ranges as float32, stamps as integer nanoseconds. (The world's
+own topics are converted in :mod:`swarm_world.world_messages`.)
 
 Readings coming in from the outside are untrusted: :func:`ground_from_image` and
 :func:`proximity_from_scan` reject malformed messages with :class:`ReadingError` and sanitize

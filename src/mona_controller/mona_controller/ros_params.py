@@ -88,7 +88,7 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
                                  f'{spec.describe_range()} ({spec.doc})') from None
         values[name[len(prefix):]] = _plain(param.value)
     check_unknown(node, [prefix] if prefix else sorted({n.split('.')[0] + '.' for n in values}),
-                  set(prefix + n for n in values))
+                  {prefix + n for n in values})
     return from_mapping(cls, unflatten(values), prefix)
 
 

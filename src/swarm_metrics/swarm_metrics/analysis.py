@@ -219,7 +219,7 @@ def episode_setup(bag: EpisodeBag) -> EpisodeSetup:
         BagError: the bag has no usable /episode announcement.
     """
     if bag.announcement is None:
-        raise BagError(f'{bag.path} holds no /episode announcement, so the episode\'s seed, '
+        raise BagError(f"{bag.path} holds no /episode announcement, so the episode's seed, "
                        f'initial poses and parameters are unknown (custom_data: '
                        f'{sorted(bag.custom) or "none"}); it holds {bag.report.readable()}')
     try:
@@ -292,7 +292,7 @@ def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]
                     ) -> tuple[int, float | None, tuple[int, str] | None]:
     """(online samples, max |online - offline| over the samples both have, (log time, metric)
     of the first sample that differs)."""
-    offline = {t: row for t, row in timed}
+    offline = dict(timed)
     worst, matched, first = None, 0, None
     for name in METRIC_NAMES:
         for t, value in bag.metrics.get(name, []):

@@ -203,7 +203,7 @@ def check_cue_maps(checked: int, max_diff: int, differing: int = 0,
     if checked == 0:
         return [Finding('cue_maps', '/world/cue_map',
                         'no cue map recorded, so the cleaning record cannot be checked '
-                        'against the world\'s cue (the world publishes one at its start and '
+                        "against the world's cue (the world publishes one at its start and "
                         'at its end)')]
     if max_diff == 0:
         return []
@@ -230,7 +230,7 @@ def check_online_metrics(max_diff: float | None,
             f'up to {max_diff:.3g}')
     at = '' if first is None else f', the first at t = {first[1]:g} s'
     return [Finding('online_metrics', where,
-                    f'the metrics node\'s samples differ from the recomputation by {size}{at}')]
+                    f"the metrics node's samples differ from the recomputation by {size}{at}")]
 
 
 # --- a whole bag --------------------------------------------------------------------------

@@ -123,7 +123,7 @@ def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) 
                                if k['speed'] == speed and k['population'] == population)
     notes = []
     if population != figures.FIG3_POPULATION or not np.isclose(speed, figures.PAPER_SPEED):
-        notes.append('nearest to the paper\'s N = 30, 8 cm/s in this design')
+        notes.append("nearest to the paper's N = 30, 8 cm/s in this design")
     parameters = record.get('parameters', {})
     with np.load(folder / outputs.SNAPSHOTS_FILE) as archive:
         snapshots = {name: archive[name] for name in ('times', 'cue', 'poses')}
@@ -383,9 +383,9 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     if parameters_file:
         lines.append(f'- every parameter: [`{parameters_file}`]({parameters_file}) (ROS 2 '
                      'parameter file; `mona-swarm study --config` reads it back); each episode '
-                     'folder\'s episode.json also records its own')
+                     "folder's episode.json also records its own")
     else:
-        lines.append('- every parameter: in each episode folder\'s episode.json')
+        lines.append("- every parameter: in each episode folder's episode.json")
     differ = differing_parameters(records)
     if differ:
         lines.append(f'- **warning**: these parameters differ between episodes: '
@@ -418,7 +418,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
               f'{anova_tables.DEFAULT_LEVELS} levels: each episode contributes its value at '
               't = ' + ', '.join(f'{t:g}' for t in anova_tables.time_levels(table)) +
               ' s. Successive samples of one episode are not independent, so p-values are '
-              'optimistic; eta^2 is the factor\'s share of the total sum of squares.', '']
+              "optimistic; eta^2 is the factor's share of the total sum of squares.", '']
     formats = {'sum_sq': '.4g', 'F': '.4g', 'p': '.3g', 'eta_sq': '.3f', 'levels': '.0f'}
     for response, name in ANOVA_FILES.items():
         label = 'Table 2: mean cue' if response == 'mean_cue' else 'Table 3: coherency'

@@ -1,8 +1,8 @@
 """The supervisor node: places the robots and runs the episodes of a ros run.
 
 For episode k it derives ``seed_k = episode.seed + k``, places the robots from that seed
-(:func:`swarm_supervisor.episode.place_swarm`, as the embedded runner does), announces the episode on
-``/episode`` and waits until the world reports it finished and every expected recorder
+(:func:`swarm_supervisor.episode.place_swarm`, as the embedded runner does), announces the
+episode on ``/episode`` and waits until the world reports it finished and every expected recorder
 (``recorders``) reports its record of it closed and complete. After the last episode it
 announces the shutdown, which ends the world and every controller node.
 
@@ -206,7 +206,7 @@ class Supervisor(Node):
                              - set(self.recorders.closed(episode, start_ns)))
             raise SupervisorError(f'episode {episode}: the recorder(s) {", ".join(missing)} '
                                   f'did not close their record within '
-                                  f'{self.options.record_timeout:g} s of the episode\'s end '
+                                  f"{self.options.record_timeout:g} s of the episode's end "
                                   f'on {qos.RECORDERS}') from None
         reports = self.recorders.closed(episode, start_ns)
         incomplete = [f'{name} ({report.path}): {"; ".join(report.problems)}'

@@ -245,7 +245,7 @@ class WorldNode(Node):
             theirs = announcement.parameters.get(section)
             if theirs is not None and theirs != to_mapping(mine):
                 return (f'the announced {section} parameters {theirs} differ from the world '
-                        f'node\'s {to_mapping(mine)}: start every node with the same '
+                        f"node's {to_mapping(mine)}: start every node with the same "
                         '--params-file')
         return ''
 
