@@ -6,9 +6,9 @@ the test (the machinery is in tests/harness.py).
   mapping is the environment for subprocesses; it is also applied to ``os.environ`` for the
   test, so in-process ``rclpy.init()`` joins the same domain.
 - ``processes``: ``processes.spawn(cmd, name)`` starts a command in its own process group,
-  logging to ``tmp_path/<name>.log``; at teardown every group gets the launcher's signal ladder
-  (SIGINT, SIGTERM, SIGABRT, SIGKILL), and Fast DDS shared-memory files created meanwhile and used by no process are
-  removed.
+  logging to ``tmp_path/<name>.log``; at teardown every group gets the launcher's signal
+  ladder (SIGINT, SIGTERM, SIGABRT, SIGKILL), and Fast DDS shared-memory files created
+  meanwhile and used by no process are removed.
 - ``busy_cores``: every core kept busy by spinning processes for the test's duration, as on a
   shared CI machine (races that a quiet machine hides show up there).
 """

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from swarm_supervisor.placement import PlacementError, place_robots, placement_rng
+from swarm_world.placement import PlacementError, place_robots, placement_rng
 
 
 def test_placement_is_inside_and_non_overlapping():

@@ -64,7 +64,7 @@ def marched_ranges(poses, bearings, radius=0.04, ir_range=0.03, side=2.85, step=
 
 
 def test_ir_agrees_with_a_marching_oracle_on_crowded_scenes():
-    from swarm_supervisor.placement import place_robots
+    from swarm_world.placement import place_robots
     rng = np.random.default_rng(0)
     robots_seen = walls_seen = 0
     for _ in range(5):

@@ -12,7 +12,7 @@ import importlib
 import sys
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor.placement import PlacementError
+from swarm_world.placement import PlacementError
 
 #: Modules that contribute subcommands, in the order ``--help`` lists them, with the
 #: subcommands each adds (so a command imports only its own module's libraries).

@@ -15,7 +15,7 @@ from mona_controller.controller import Command, SwarmController
 from mona_controller.mona import wheels_to_twist
 from swarm_metrics.metrics import sample
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.placement import place_robots, placement_rng
+from swarm_world.placement import place_robots, placement_rng
 from swarm_world.sensors import ground_readings, proximity
 from swarm_world.timing import crossed
 from swarm_world.world import World

@@ -40,7 +40,7 @@ from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.episode import place_swarm
-from swarm_supervisor.placement import PlacementError
+from swarm_world.placement import PlacementError
 
 RUN_FILE = 'run.json'
 #: Wall seconds without a world node before a running episode counts as failed.
