@@ -78,3 +78,19 @@ def test_announcement_round_trips_and_says_what_is_wrong():
         Announcement.from_dict({**announced.__dict__, 'poses': [[0, 0, 0], [1, 'nan', 0]]})
     with pytest.raises(ContractError, match='not JSON'):
         Announcement.from_json('{')
+
+
+def test_world_status_round_trips_and_tolerates_what_a_driver_does_not_count():
+    from mona_controller.contract import WorldState, WorldStatus
+    status = WorldStatus(3, WorldState.FINISHED, step=10, steps=10, time_ns=320_000_000,
+                         misses=(0, 2), absent=(1,), dropped=1, cleaning_events=4)
+    assert WorldStatus.from_json(status.to_json()) == status
+    assert status.ended and not WorldStatus(3, WorldState.RUNNING).ended
+    driver = WorldStatus.from_json('{"episode": 0, "state": "running", "time_ns": 5}')
+    assert driver.cleaning_events is None and driver.misses == ()
+    with pytest.raises(ContractError, match="without 'state'"):
+        WorldStatus.from_json('{"episode": 0}')
+    with pytest.raises(ContractError, match='malformed'):
+        WorldStatus.from_json('{"episode": 0, "state": "dancing"}')
+    with pytest.raises(ContractError, match='not a JSON object'):
+        WorldStatus.from_json('[1]')

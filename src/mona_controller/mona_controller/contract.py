@@ -71,6 +71,79 @@ class ContractError(ValueError):
 
 
 @dataclasses.dataclass(frozen=True)
+class WorldStatus:
+    """The world's /world/status message (std_msgs/String JSON).
+
+    Readers take what they need; a status from a world that does not count something (a real
+    robot's driver) leaves it at its default (``cleaning_events`` None: not counted).
+    """
+
+    episode: int  #: -1 before the first episode
+    state: WorldState
+    step: int = 0  #: steps done in the episode
+    steps: int = 0  #: the episode's step count
+    time_ns: int = 0  #: sim time now (monotonic across episodes)
+    mode: str = 'lockstep'
+    misses: tuple[int, ...] = ()  #: per robot
+    absent: tuple[int, ...] = ()  #: robot ids
+    dropped: int = 0  #: commands stamped for another step
+    duplicates: int = 0
+    cleaning_events: int | None = None  #: /world/cleaning messages of the episode so far
+    error: str = ''
+
+    @property
+    def ended(self) -> bool:
+        """The episode is over, finished or failed."""
+        return self.state in (WorldState.FINISHED, WorldState.FAILED)
+
+    def to_json(self) -> str:
+        """The message text."""
+        document = dataclasses.asdict(self)
+        document.update(state=self.state.value, misses=list(self.misses),
+                        absent=list(self.absent))
+        return json.dumps(document)
+
+    @classmethod
+    def from_dict(cls, document: dict) -> WorldStatus:
+        """Parse a decoded status.
+
+        Raises:
+            ContractError: naming the missing field or the bad value.
+        """
+        try:
+            counted = document.get('cleaning_events')
+            return cls(episode=int(document['episode']), state=WorldState(document['state']),
+                       step=int(document.get('step', 0)), steps=int(document.get('steps', 0)),
+                       time_ns=int(document.get('time_ns', 0)),
+                       mode=str(document.get('mode', 'lockstep')),
+                       misses=tuple(int(m) for m in document.get('misses', ())),
+                       absent=tuple(int(a) for a in document.get('absent', ())),
+                       dropped=int(document.get('dropped', 0)),
+                       duplicates=int(document.get('duplicates', 0)),
+                       cleaning_events=None if counted is None else int(counted),
+                       error=str(document.get('error') or ''))
+        except KeyError as error:
+            raise ContractError(f'a /world/status without {error.args[0]!r}') from None
+        except (ValueError, TypeError, AttributeError) as error:
+            raise ContractError(f'a malformed /world/status ({error})') from None
+
+    @classmethod
+    def from_json(cls, text: str) -> WorldStatus:
+        """Parse a /world/status message.
+
+        Raises:
+            ContractError: not a JSON object, or as :meth:`from_dict`.
+        """
+        try:
+            document = json.loads(text)
+        except ValueError as error:
+            raise ContractError(f'/world/status is not JSON ({error}): {text[:200]}') from None
+        if not isinstance(document, dict):
+            raise ContractError(f'/world/status is not a JSON object: {text[:200]}')
+        return cls.from_dict(document)
+
+
+@dataclasses.dataclass(frozen=True)
 class RecorderReport:
     """One recorder's word on one episode (/recorders, std_msgs/String JSON).
 

@@ -257,7 +257,7 @@ class MetricsNode(Node):
         """Close the ended episode's bag; after the shutdown announcement, stop."""
         final = self.recorder.episode.final if self.recorder.episode else None
         self.close('the supervisor announced the shutdown' if self._shutdown_requested
-                   else f'the world {(final or {}).get("state", "ended")} the episode')
+                   else f'the world {final.state.value if final else "ended"} the episode')
         if self._shutdown_requested:
             self._stop(0)
 

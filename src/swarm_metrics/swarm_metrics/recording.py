@@ -20,7 +20,7 @@ from typing import NamedTuple
 from rosbags.interfaces import Qos
 
 from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
-                                      STATUS, WorldState)
+                                      STATUS, ContractError, WorldState, WorldStatus)
 from swarm_metrics.analysis import METRIC_NAMES, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
 from swarm_metrics.bag_writer import EpisodeBagWriter
@@ -60,7 +60,7 @@ class Episode:
     last_pose_ns: int = 0
     last_map_ns: int = -1
     running: bool = False  #: the world said it runs the episode
-    final: dict | None = None  #: the world's finished or failed status
+    final: WorldStatus | None = None  #: the world's finished or failed status
 
     @property
     def recorded_ns(self) -> int:
@@ -73,26 +73,24 @@ class Episode:
             return False
         # The world publishes the final poses and cue map, then its final status, on three
         # topics: any of them may come last.
-        end_ns = self.final.get('time_ns', self.setup.end_ns)
-        counted = self.final.get('cleaning_events')
+        end_ns, counted = self.final.time_ns, self.final.cleaning_events
         return (self.last_pose_ns >= end_ns and self.last_map_ns >= end_ns
-                and (not isinstance(counted, int) or self.cleaning >= counted))
+                and (counted is None or self.cleaning >= counted))
 
     def problems(self) -> list[str]:
         """What the record lacks (nothing: it is complete)."""
         problems = []
-        final = self.final or {}
-        if final.get('state') != WorldState.FINISHED.value:
+        final = self.final
+        if final is None or final.state is not WorldState.FINISHED:
             problems.append('the world did not report the episode finished'
-                            + (f' (it {final.get("state")}: {final.get("error")})'
-                               if final else ''))
-        end_ns = final.get('time_ns', self.setup.end_ns)
+                            + (f' (it {final.state.value}: {final.error})' if final else ''))
+        end_ns = self.setup.end_ns if final is None else final.time_ns
         expected = (end_ns - self.setup.start_ns) // self.setup.sample_ns + 1
         if self.samples != expected:
             problems.append(f'{self.samples} of {expected} metric samples (t = 0 .. '
                             f'{(expected - 1) * self.setup.metrics.sample_period:g} s)')
-        counted = final.get('cleaning_events')
-        if isinstance(counted, int) and self.cleaning != counted:
+        counted = None if final is None else final.cleaning_events
+        if counted is not None and self.cleaning != counted:
             problems.append(f'{self.cleaning} of the {counted} cleaning events')
         if self.replica.late_events:
             problems.append(f'{self.replica.late_events} cleaning events arrived after their '
@@ -221,19 +219,18 @@ class Recorder:
         Raises:
             BagError: the message does not hold a JSON object.
         """
-        status = decode_json(RawMessage(STATUS, STRING, 0, data))
-        time_ns = status.get('time_ns')
-        if isinstance(time_ns, int) and time_ns >= 0:
-            self.now_ns = max(self.now_ns, time_ns)
+        try:
+            status = WorldStatus.from_dict(decode_json(RawMessage(STATUS, STRING, 0, data)))
+        except ContractError as error:
+            raise BagError(str(error)) from None
+        self.now_ns = max(self.now_ns, status.time_ns)
         episode = self.episode
-        if episode is None or status.get('episode') != episode.setup.episode:
+        if episode is None or status.episode != episode.setup.episode:
             return False
         self.write(STATUS, self.now_ns, data)
-        state = status.get('state')
-        if state == WorldState.RUNNING.value:
+        if status.state is WorldState.RUNNING:
             episode.running = True
-        elif state in (WorldState.FINISHED.value, WorldState.FAILED.value) \
-                and episode.final is None:
+        elif status.ended and episode.final is None:
             episode.final = status
             return True
         return False

@@ -33,8 +33,8 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from mona_controller import qos
-from mona_controller.contract import (ContractError, RecorderBook, RecorderReport, WorldState,
-                                      recorder_names)
+from mona_controller.contract import (Announcement, ContractError, RecorderBook,
+                                      RecorderReport, WorldState, WorldStatus, recorder_names)
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
@@ -84,8 +84,8 @@ class Supervisor(Node):
             raise ParameterError(f'episode.population = {self.config.episode.population} is out '
                                  'of range for a ros run: allowed [1, 1000] robots (a world '
                                  'without robots has nothing to step in lockstep)')
-        self.status: dict = {}
-        self.announcement: dict = {}
+        self.status: WorldStatus | None = None  #: the world's latest
+        self.announcement: Announcement | None = None  #: the latest episode announced
         self.records: list[dict] = []
         self.recorders = RecorderBook(recorder_names(self.options.recorders))
         self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
@@ -94,9 +94,9 @@ class Supervisor(Node):
 
     def _on_status(self, msg: String) -> None:
         try:
-            self.status = json.loads(msg.data)
-        except ValueError:
-            self.get_logger().warning(f'unreadable /world/status: {msg.data[:200]}')
+            self.status = WorldStatus.from_json(msg.data)
+        except ContractError as error:
+            self.get_logger().warning(str(error), throttle_duration_sec=5.0)
 
     def _on_recorder(self, msg: String) -> None:
         try:
@@ -127,62 +127,63 @@ class Supervisor(Node):
             else:
                 rclpy.spin_once(self, timeout_sec=0.1)
 
-    def wait_for_world(self, timeout: float | None = None) -> dict:
+    def wait_for_world(self, timeout: float | None = None) -> WorldStatus:
         """Wait for the world node's status; return it."""
-        self._spin_until(lambda: bool(self.status), timeout or self.options.world_timeout,
+        self._spin_until(lambda: self.status is not None,
+                         timeout or self.options.world_timeout,
                          f'the world node (no {qos.STATUS})')
         return self.status
 
-    def reset_episode(self, seed: int, episode: int | None = None) -> dict:
+    def reset_episode(self, seed: int, episode: int | None = None) -> Announcement:
         """Place the robots from ``seed`` and announce the episode; return the announcement.
 
         Sim time carries on from the world's current time (``start_ns``), so it never runs
         backwards across episodes.
         """
-        if not self.status:
+        if self.status is None:
             self.wait_for_world()
         if episode is None:
-            episode = int(self.announcement.get('episode', -1)) + 1
+            episode = self.announcement.episode + 1 if self.announcement else 0
         config = self.config.replace(episode={'seed': seed})
         try:
             poses = place_swarm(config, seed)
         except PlacementError as error:
             raise ParameterError(str(error)) from None
-        self.announcement = {
-            'episode': episode, 'seed': seed, 'population': config.episode.population,
-            'duration': config.episode.duration, 'start_ns': int(self.status['time_ns']),
-            'poses': poses.tolist(), 'parameters': config.to_dict()}
-        self.episode_pub.publish(String(data=json.dumps(self.announcement)))
+        self.announcement = Announcement(
+            episode, seed=seed, population=config.episode.population,
+            duration=config.episode.duration, start_ns=self.status.time_ns,
+            poses=tuple(map(tuple, poses.tolist())), parameters=config.to_dict())
+        self.episode_pub.publish(String(data=self.announcement.to_json()))
         self.get_logger().info(f'episode {episode}: seed {seed}, {len(poses)} robots, start '
-                               f'{self.announcement["start_ns"]} ns')
+                               f'{self.announcement.start_ns} ns')
         return self.announcement
 
-    def run_episode(self, timeout: float | None = None) -> dict:
+    def run_episode(self, timeout: float | None = None) -> WorldStatus:
         """Wait until the world finishes the announced episode; return its final status.
 
         Raises:
             SupervisorError: the world rejected or failed the episode, or it took too long.
         """
-        episode = self.announcement['episode']
+        announced = self.announcement
+        episode = announced.episode
 
         def over() -> bool:
-            return (self.status.get('episode') == episode
-                    and self.status.get('state') in (WorldState.FINISHED, WorldState.FAILED))
+            return self.status.episode == episode and self.status.ended
 
         self._spin_until(over, timeout or self.options.episode_timeout,
                          f'episode {episode} to finish', watch_world=True)
-        if self.status['state'] == WorldState.FAILED:
-            raise SupervisorError(f'the world failed episode {episode}: '
-                                  f'{self.status.get("error")}')
-        final = dict(self.status)
+        final = self.status
+        if final.state is WorldState.FAILED:
+            raise SupervisorError(f'the world failed episode {episode}: {final.error}')
         records = self._wait_for_records(episode)
-        self.records.append({key: self.announcement[key] for key in
-                             ('episode', 'seed', 'population', 'duration', 'start_ns')}
-                            | {'end_ns': final['time_ns'], 'steps': final['step'],
-                               'misses': sum(final['misses']), 'dropped': final['dropped'],
-                               'records': records})
-        self.get_logger().info(f'episode {episode} finished: {final["step"]} steps, misses '
-                               f'{sum(final["misses"])}, dropped {final["dropped"]}')
+        self.records.append({'episode': episode, 'seed': announced.seed,
+                             'population': announced.population,
+                             'duration': announced.duration, 'start_ns': announced.start_ns,
+                             'end_ns': final.time_ns, 'steps': final.step,
+                             'misses': sum(final.misses), 'dropped': final.dropped,
+                             'records': records})
+        self.get_logger().info(f'episode {episode} finished: {final.step} steps, misses '
+                               f'{sum(final.misses)}, dropped {final.dropped}')
         return final
 
     def _wait_for_records(self, episode: int) -> dict[str, dict]:
@@ -193,7 +194,7 @@ class Supervisor(Node):
             SupervisorError: a recorder did not close it in ``record_timeout``, or its record
                 is incomplete (the message says what it lacks).
         """
-        start_ns = self.announcement['start_ns']
+        start_ns = self.announcement.start_ns
 
         def closed() -> bool:
             return len(self.recorders.closed(episode, start_ns)) == len(self.recorders.names)
@@ -219,9 +220,8 @@ class Supervisor(Node):
 
     def shutdown_run(self) -> None:
         """Announce the end of the run; every node exits."""
-        episode = int(self.announcement.get('episode', -1))
-        self.episode_pub.publish(String(data=json.dumps({'episode': episode,
-                                                         'shutdown': True})))
+        episode = self.announcement.episode if self.announcement else -1
+        self.episode_pub.publish(String(data=Announcement(episode, shutdown=True).to_json()))
         self.episode_pub.wait_for_all_acked(Duration(seconds=5))
 
     def write_run(self) -> None:

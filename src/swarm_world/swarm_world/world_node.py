@@ -34,7 +34,7 @@ from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
 from mona_controller.contract import (Announcement, ContractError, RecorderBook, RecorderReport,
-                                      WorldState, recorder_names)
+                                      WorldState, WorldStatus, recorder_names)
 from mona_controller.messages import (fill_readings, ground_image, proximity_scan, set_stamp,
                                       stamp_to_ns)
 from mona_controller.mona import MonaParams
@@ -494,11 +494,14 @@ class WorldNode(Node):
             self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
 
     def publish_status(self) -> None:
-        self.status_pub.publish(String(data=json.dumps({
-            'episode': self.episode, 'state': self.state.value, 'step': self.world.steps,
-            'steps': self.total_steps, 'time_ns': self.time_ns, 'mode': self.options.mode,
-            **self.lockstep.counters(), 'cleaning_events': self.cleaning_events,
-            'error': self.error})))
+        counters = self.lockstep.counters()
+        status = WorldStatus(
+            self.episode, self.state, step=self.world.steps, steps=self.total_steps,
+            time_ns=self.time_ns, mode=self.options.mode, misses=tuple(counters['misses']),
+            absent=tuple(counters['absent']), dropped=counters['dropped'],
+            duplicates=counters['duplicates'], cleaning_events=self.cleaning_events,
+            error=self.error)
+        self.status_pub.publish(String(data=status.to_json()))
 
     def _write_final(self) -> None:
         """<output_dir>/episode_<k>/world_final.npz: the final state, for parity checks."""
