@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from mona_controller.contract import Announcement, ContractError
 from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
@@ -56,29 +57,23 @@ class EpisodeSetup:
             AnnouncementError: naming the missing field or the bad parameter.
         """
         try:
-            parameters = announcement['parameters']
-            if not isinstance(parameters, dict):
-                raise AnnouncementError("'parameters' is not a mapping")
-            poses = np.asarray(announcement['poses'], dtype=np.float64).reshape(-1, 3)
+            announced = Announcement.from_dict(announcement)
+            if announced.shutdown:
+                raise AnnouncementError('a shutdown announcement announces no episode')
+            parameters = announced.parameters
             setup = cls(
-                episode=int(announcement['episode']), seed=int(announcement['seed']),
-                population=int(announcement['population']),
-                duration=float(announcement['duration']),
-                start_ns=int(announcement['start_ns']), initial_poses=poses,
+                episode=announced.episode, seed=announced.seed,
+                population=announced.population, duration=announced.duration,
+                start_ns=announced.start_ns,
+                initial_poses=np.asarray(announced.poses, dtype=np.float64).reshape(-1, 3),
                 world=from_mapping(WorldParams, parameters.get('world'), 'world.'),
                 mona=from_mapping(MonaParams, parameters.get('mona'), 'mona.'),
                 metrics=from_mapping(MetricsParams, parameters.get('metrics'), 'metrics.'),
                 parameters=parameters)
-        except KeyError as error:
-            raise AnnouncementError(f'the episode announcement has no {error.args[0]!r}') \
-                from None
-        except (TypeError, ValueError, OverflowError) as error:  # ParameterError included
+        except ContractError as error:
+            raise AnnouncementError(str(error)) from None
+        except (TypeError, ValueError) as error:  # ParameterError included
             raise AnnouncementError(f'bad episode announcement: {error}') from None
-        if len(poses) != setup.population or not np.isfinite(poses).all():
-            raise AnnouncementError(f'the announcement places {len(poses)} robots (finite '
-                                    f'poses expected) for population {setup.population}')
-        if not math.isfinite(setup.duration) or setup.duration <= 0 or setup.start_ns < 0:
-            raise AnnouncementError('the announcement needs duration > 0 and start_ns >= 0')
         return setup
 
     @property
