@@ -59,3 +59,39 @@ class WorldParams:
     def centre(self) -> tuple[float, float]:
         """The arena centre, which is the cue (and source) centre (m)."""
         return (self.arena_side / 2, self.arena_side / 2)
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldNodeParams:
+    """Options of the world node (how it steps and publishes; not part of the model)."""
+
+    mode: str = param('lockstep', choices=('lockstep', 'realtime'),
+                      doc='lockstep: wait for every command; realtime: step on the wall clock')
+    lockstep_deadline: float = param(2.0, unit='s (wall)', low=0.001, high=3600.0,
+                                     doc='how long a lockstep round waits for the commands')
+    absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
+                              doc='consecutive misses after which a robot is absent and no '
+                                  'longer waited for (it rejoins when it answers)')
+    recorders: str = param('', doc="comma-separated node names of the recorders (the metrics "
+                                   "node: 'metrics') that must say they record an episode "
+                                   "before its step 0 ('' = none)")
+    recorder_lag: float = param(10.0, unit='s (sim)', low=0.0, high=1e7,
+                                doc='lockstep: never step more than this ahead of the slowest '
+                                    "recorder's whole record (0 = do not wait for recorders "
+                                    'while running)')
+    recorder_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
+                                    doc='how long a running episode waits for a recorder that '
+                                        'fell behind before the episode fails')
+    start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
+                                 doc='how long to wait for every controller and recorder to '
+                                     'connect')
+    clock_period: float = param(0.1, unit='s (sim)', low=0.0, high=3600.0,
+                                doc='/clock publishing period (0: every step)')
+    map_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
+                              doc='cue map, grid and markers publishing period (0: every step)')
+    status_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
+                                 doc='/world/status period while running (0: every step)')
+    output_dir: str = param('', doc="directory for episode_<k>/world_final.npz ('' = none)")
+
+    def __post_init__(self) -> None:
+        validate(self)

@@ -10,7 +10,6 @@ every robot's controller and every recorder, then steps in lockstep or realtime.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import sys
@@ -39,10 +38,10 @@ from mona_controller.messages import (fill_readings, ground_image, proximity_sca
                                       stamp_to_ns)
 from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
-from mona_controller.schema import ParameterError, param, to_mapping, validate
+from mona_controller.schema import ParameterError, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
-from swarm_world.params import WorldParams
+from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
 from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, robot_markers
@@ -52,42 +51,6 @@ FINAL_FILE = 'world_final.npz'
 RESEND_PERIOD = 0.2
 #: Wall seconds between looks at a recorder that holds the world back.
 HOLD_POLL = 0.02
-
-
-@dataclasses.dataclass(frozen=True)
-class WorldNodeParams:
-    """Options of the world node (how it steps and publishes; not part of the model)."""
-
-    mode: str = param('lockstep', choices=('lockstep', 'realtime'),
-                      doc='lockstep: wait for every command; realtime: step on the wall clock')
-    lockstep_deadline: float = param(2.0, unit='s (wall)', low=0.001, high=3600.0,
-                                     doc='how long a lockstep round waits for the commands')
-    absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
-                              doc='consecutive misses after which a robot is absent and no '
-                                  'longer waited for (it rejoins when it answers)')
-    recorders: str = param('', doc="comma-separated node names of the recorders (the metrics "
-                                   "node: 'metrics') that must say they record an episode "
-                                   "before its step 0 ('' = none)")
-    recorder_lag: float = param(10.0, unit='s (sim)', low=0.0, high=1e7,
-                                doc='lockstep: never step more than this ahead of the slowest '
-                                    "recorder's whole record (0 = do not wait for recorders "
-                                    'while running)')
-    recorder_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
-                                    doc='how long a running episode waits for a recorder that '
-                                        'fell behind before the episode fails')
-    start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
-                                 doc='how long to wait for every controller and recorder to '
-                                     'connect')
-    clock_period: float = param(0.1, unit='s (sim)', low=0.0, high=3600.0,
-                                doc='/clock publishing period (0: every step)')
-    map_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
-                              doc='cue map, grid and markers publishing period (0: every step)')
-    status_period: float = param(1.0, unit='s (sim)', low=0.0, high=1e7,
-                                 doc='/world/status period while running (0: every step)')
-    output_dir: str = param('', doc="directory for episode_<k>/world_final.npz ('' = none)")
-
-    def __post_init__(self) -> None:
-        validate(self)
 
 
 class RobotLink:
