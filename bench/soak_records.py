@@ -11,6 +11,7 @@ embedded runner's for the same seed, exactly. Not a test: it prints a table to q
 from __future__ import annotations
 
 import argparse
+import json
 import contextlib
 import subprocess
 import sys
@@ -43,6 +44,15 @@ def check_episode(bag: Path, seed: int, population: int, duration: float) -> tup
     return not findings, equal
 
 
+def bag_of(folder: Path, episode: int) -> Path:
+    """Episode k's bag: as the metrics node reported it in run.json, else where it goes."""
+    try:
+        record = json.loads((folder / 'run.json').read_text())['episodes'][episode]
+        return Path(record['records']['metrics']['path'])
+    except (OSError, ValueError, KeyError, IndexError):
+        return folder / f'episode_{episode}' / 'bag'
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--runs', type=int, default=10)
@@ -62,6 +72,8 @@ def main() -> int:
         for run in range(args.runs):
             seed = args.seed + 10 * run
             folder = out / f'run_{run}'
+            if folder.exists():
+                parser.error(f'{folder} exists: give a new --out (its bags would be checked)')
             started = time.monotonic()
             status = subprocess.run(
                 [str(REPO / 'scripts' / 'swarm.sh'), '--population', str(args.population),
@@ -69,8 +81,8 @@ def main() -> int:
                  '--seed', str(seed), '--out', str(folder)],
                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True).returncode
             wall = time.monotonic() - started
-            results = [check_episode(folder / f'episode_{k}' / 'bag', seed + k,
-                                     args.population, args.duration)
+            results = [check_episode(bag_of(folder, k), seed + k, args.population,
+                                     args.duration)
                        for k in range(args.episodes)]
             exits.append(status)
             bags += len(results)
