@@ -130,7 +130,8 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
                           start_ns + step.time_ns // episode.sample_ns * episode.sample_ns,
                           float_cdr(rows[-1][name]))
                 write('/world/status', now, string_cdr(json.dumps(
-                    {'episode': 0, 'state': 'running', 'time_ns': now})))
+                    {'episode': 0, 'state': 'running', 'time_ns': now,
+                     'cleaning_events': cleaning_events})))
             if crossed(step.before_ns, step.time_ns, map_ns):
                 write('/world/cue_map', now, image_cdr(world.cue, now))
         if finished:

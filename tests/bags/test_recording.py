@@ -109,3 +109,26 @@ def test_an_episode_that_ends_between_sample_times_is_complete(tmp_path):
     assert closed.problems == ()
     assert [row['t'] for row in rows] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
     assert recompute(read_episode_bag(closed.path)).rows == rows
+
+
+def test_samples_wait_for_the_cleaning_events_the_world_counted(world_messages, tmp_path):
+    """After a stall the two topics' repairs come in any order: here every cleaning event
+    arrives after all the poses. The world's status counts them, so no sample is taken
+    before its cleaning is in, and the online metrics still equal the embedded run."""
+    messages, rows = world_messages
+    cleaning = [m for m in messages if m[0] == CLEANING]
+    others = [m for m in messages if m[0] != CLEANING]
+    end = max(i for i, (topic, _) in enumerate(others) if topic == STATUS)  # finished
+    recorder = make_recorder(tmp_path)
+    published = []
+    for topic, data in others[:end] + cleaning + others[end:]:
+        if topic == EPISODE:
+            published += recorder.announce(data).rows
+        elif topic == STATUS:
+            published += recorder.status(data)[1]
+        else:
+            published += recorder.route(topic, data)
+    assert len(cleaning) >= 3
+    closed, last = recorder.close()
+    assert closed.problems == ()
+    assert [row for _, row in published + last] == rows

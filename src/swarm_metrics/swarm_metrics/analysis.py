@@ -10,6 +10,7 @@ so its online metrics and this offline recomputation agree by construction.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 from typing import Any
@@ -26,6 +27,8 @@ from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import clean_under
 
+#: Later than any sim time.
+NEVER = 2**63 - 1
 #: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
 METRIC_NAMES = COLUMNS[1:]
 
@@ -93,9 +96,10 @@ class MetricsReplica:
     """The cue and the metrics of one episode, rebuilt from what the world publishes.
 
     Feed it the cleaning events and the poses in the order they arrive. A sample is due at the
-    first pose at or after each sample boundary; it is taken once a later pose arrives (or at
-    :meth:`finish`), after applying every cleaning event stamped up to the sampled pose, so
-    the order in which the two topics arrive does not matter.
+    first pose at or after each sample boundary; it is taken once a later pose arrives and
+    every cleaning event stamped up to the sampled pose is known to be in (``confirmed_ns``;
+    or at :meth:`finish`), after applying those events, so the order in which the two topics
+    arrive does not matter.
     """
 
     def __init__(self, setup: EpisodeSetup) -> None:
@@ -107,7 +111,11 @@ class MetricsReplica:
         self.late_events = 0  #: cleaning events that arrived after their time was sampled
         self.poses: np.ndarray = setup.initial_poses.copy()  #: the latest poses
         self._events: list[tuple[int, np.ndarray]] = []
-        self._pending: tuple[int, int, np.ndarray] | None = None  # (time ns, k, poses)
+        self._pending: collections.deque[tuple[int, int, np.ndarray]] = collections.deque()
+        #: Every cleaning event stamped up to here has been fed. Offline (a bag read in time
+        #: order) that is always so; online the recorder moves it with the world's status,
+        #: which counts the cleaning events: the two topics arrive in no fixed order.
+        self.confirmed_ns = NEVER
         self._last_pose_ns = setup.start_ns
         self._sampled_ns = setup.start_ns
 
@@ -141,27 +149,29 @@ class MetricsReplica:
             if poses is None:
                 raise ValueError('a sampled pose needs its poses')
             k = (time_ns - self.setup.start_ns) // self.setup.sample_ns
-            self._pending = (time_ns, k, poses)
+            self._pending.append((time_ns, k, poses))
         return rows, due
 
     def advance(self, time_ns: int) -> list[tuple[int, dict]]:
-        """Take the pending sample if it is stamped at or before ``time_ns``."""
-        if self._pending is None or self._pending[0] > time_ns:
-            return []
-        stamp, k, poses = self._pending
-        self._pending = None
-        self.cue_at(stamp)
-        self._sampled_ns = stamp
-        return [(self.setup.start_ns + k * self.setup.sample_ns, self._row(k, poses))]
+        """Take the pending samples stamped at or before ``time_ns`` (and ``confirmed_ns``)."""
+        limit = min(time_ns, self.confirmed_ns)
+        rows = []
+        while self._pending and self._pending[0][0] <= limit:
+            stamp, k, poses = self._pending.popleft()
+            self.cue_at(stamp)
+            self._sampled_ns = stamp
+            rows.append((self.setup.start_ns + k * self.setup.sample_ns, self._row(k, poses)))
+        return rows
 
     @property
     def pending_poses(self) -> np.ndarray:
         """The poses of the sample :meth:`advance` would take next (else the latest poses)."""
-        return self.poses if self._pending is None else self._pending[2]
+        return self._pending[0][2] if self._pending else self.poses
 
     def finish(self) -> list[tuple[int, dict]]:
-        """Take the pending sample (the world has finished or gone)."""
-        return self.advance(2**63 - 1)
+        """Take every pending sample (the world has finished or gone: nothing more comes)."""
+        self.confirmed_ns = NEVER
+        return self.advance(NEVER)
 
     def cue_at(self, time_ns: int) -> np.ndarray:
         """The cue after every cleaning event stamped up to ``time_ns`` (applied in order)."""
@@ -277,7 +287,7 @@ def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomp
                                f'parameters give {cue.shape}')
     keep(replica.finish(), replica.pending_poses)
     online, diff, online_first = _compare_online(bag, timed)
-    return Recomputation(setup, [row for _, row in timed], replica.cue_at(2**63 - 1).copy(),
+    return Recomputation(setup, [row for _, row in timed], replica.cue_at(NEVER).copy(),
                          replica.poses.copy(), online, diff, checked, worst,
                          bag.status[-1][1] if bag.status else None, snapshots,
                          differing, first_diff, online_first)

@@ -228,10 +228,11 @@ class MetricsNode(Node):
     def _on_status(self, topic: str, data: bytes) -> None:
         self._last_world = time.monotonic()
         try:
-            ended = self.recorder.status(data)
+            ended, rows = self.recorder.status(data)
         except BagError as error:
             self.get_logger().warning(str(error))
             return
+        self._publish(rows)
         if ended:
             self._closing_at = time.monotonic() + self.options.finish_timeout
             self._close_if_done()

@@ -11,6 +11,7 @@ final status and everything that status counts (the poses up to its time, its
 
 from __future__ import annotations
 
+import bisect
 import collections
 import dataclasses
 import struct
@@ -21,7 +22,8 @@ from rosbags.interfaces import Qos
 
 from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
                                       STATUS, ContractError, WorldState, WorldStatus)
-from swarm_metrics.analysis import METRIC_NAMES, AnnouncementError, EpisodeSetup, MetricsReplica
+from swarm_metrics.analysis import (METRIC_NAMES, NEVER, AnnouncementError, EpisodeSetup,
+                                    MetricsReplica)
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
 from swarm_metrics.bag_writer import EpisodeBagWriter
 
@@ -61,6 +63,8 @@ class Episode:
     last_map_ns: int = -1
     running: bool = False  #: the world said it runs the episode
     final: WorldStatus | None = None  #: the world's finished or failed status
+    cleaning_stamps: list[int] = dataclasses.field(default_factory=list)  #: sorted
+    counted: tuple[int, int] | None = None  #: the world's latest (time_ns, cleaning_events)
 
     @property
     def recorded_ns(self) -> int:
@@ -178,6 +182,8 @@ class Recorder:
             path, n = folder / f'bag_{n}', n + 1
         bag = EpisodeBagWriter(path, chunk_period=self.chunk_period)
         self.episode = Episode(setup, bag, MetricsReplica(setup), last_pose_ns=setup.start_ns)
+        # Samples wait until the world's status says every cleaning event up to them is here.
+        self.episode.replica.confirmed_ns = setup.start_ns
         self._last_recorded.clear()
         for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP,
                       *(METRICS_PREFIX + name for name in METRIC_NAMES)):
@@ -213,8 +219,9 @@ class Recorder:
 
     # --- messages -------------------------------------------------------------------
 
-    def status(self, data: bytes) -> bool:
-        """A /world/status message; True if it ends the open episode (finished or failed).
+    def status(self, data: bytes) -> tuple[bool, list[Row]]:
+        """A /world/status message. Returns (whether it ends the open episode, finished or
+        failed; metric rows it completes).
 
         Raises:
             BagError: the message does not hold a JSON object.
@@ -226,14 +233,33 @@ class Recorder:
         self.now_ns = max(self.now_ns, status.time_ns)
         episode = self.episode
         if episode is None or status.episode != episode.setup.episode:
-            return False
+            return False, []
         self.write(STATUS, self.now_ns, data)
+        if status.cleaning_events is None:  # a world that does not count: trust the order
+            episode.replica.confirmed_ns = NEVER
+        elif episode.counted is None or status.time_ns >= episode.counted[0]:
+            episode.counted = (status.time_ns, status.cleaning_events)
+        rows = self._confirm_cleaning()
         if status.state is WorldState.RUNNING:
             episode.running = True
         elif status.ended and episode.final is None:
             episode.final = status
-            return True
-        return False
+            return True, rows
+        return False, rows
+
+    def _confirm_cleaning(self) -> list[Row]:
+        """Take the samples up to the world's latest count once every cleaning event it
+        counted is here (the cleaning events and the poses travel on two topics, and after a
+        stall their repairs can come in any order)."""
+        episode = self.episode
+        if episode.counted is None:
+            return []
+        time_ns, count = episode.counted
+        if time_ns <= episode.replica.confirmed_ns or \
+                bisect.bisect_right(episode.cleaning_stamps, time_ns) < count:
+            return []
+        episode.replica.confirmed_ns = time_ns
+        return self._samples(episode.replica.advance(time_ns))
 
     def route(self, topic: str, data: bytes) -> list[Row]:
         """A /world/poses, /world/cleaning or /world/cue_map message; returns metric rows.
@@ -279,7 +305,8 @@ class Recorder:
                                                                    data))))
         self.write(CLEANING, stamp, data)
         episode.cleaning += 1
-        return []
+        bisect.insort(episode.cleaning_stamps, stamp)
+        return self._confirm_cleaning()
 
     def periodic(self, topic: str, data: bytes) -> None:
         """Record a /clock or /world/cue_map message: at most one per period, and the one

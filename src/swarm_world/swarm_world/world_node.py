@@ -378,6 +378,9 @@ class WorldNode(Node):
             self.held_since = now
             if self.step_timer is not None:
                 self.step_timer.cancel()  # no deadline while no round is under way
+            # The recorder samples only up to a status (it counts the cleaning events): say
+            # where the world stands, or a recorder one sample behind would wait for ever.
+            self.publish_status()
             self.get_logger().info(f'step {self.world.steps}: waiting for recorder(s) '
                                    f'{", ".join(behind)} to catch up',
                                    throttle_duration_sec=5.0)
