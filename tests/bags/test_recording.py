@@ -5,6 +5,7 @@ an incomplete record lacks."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,7 @@ from swarm_metrics.bag_reader import McapScan, find_mcap, read_episode_bag
 from swarm_metrics.recording import Recorder, float64_cdr
 from swarm_supervisor.config import load_config
 
-from bagtools import TOPICS, embedded_episode_bag
+from bagtools import TOPICS, embedded_episode_bag, string_cdr
 
 CONFIG = load_config().replace(episode={'population': 10, 'duration': 12.0, 'seed': 3})
 
@@ -132,3 +133,24 @@ def test_samples_wait_for_the_cleaning_events_the_world_counted(world_messages, 
     closed, last = recorder.close()
     assert closed.problems == ()
     assert [row for _, row in published + last] == rows
+
+
+def test_a_status_that_comes_before_its_announcement_counts(world_messages, tmp_path):
+    """The world's status and the announcement travel on two topics: a status of the episode
+    may arrive first. It is kept: here it is the only one before the end and comes from a
+    world that does not count cleaning events (a driver), so samples must flow at once
+    instead of waiting for a count that never comes."""
+    messages, rows = world_messages
+    driver_status = (STATUS, string_cdr(json.dumps({'episode': 0, 'state': 'running',
+                                                    'time_ns': 7 * 10**9})))
+    statuses = [i for i, (topic, _) in enumerate(messages) if topic == STATUS]
+    kept = [m for i, m in enumerate(messages) if i not in statuses[:-1]]  # the finished one
+    recorder = make_recorder(tmp_path)
+    recorder.status(driver_status[1])
+    published = []
+    for topic, data in kept[:-1]:  # all but the finished status
+        if topic == EPISODE:
+            published += recorder.announce(data).rows
+        else:
+            published += recorder.route(topic, data)
+    assert len(published) >= len(rows) - 1  # every sample but the last was taken on the way

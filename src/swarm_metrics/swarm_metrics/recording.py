@@ -150,6 +150,7 @@ class Recorder:
         self._closed_end_ns = -1  # older messages belong to no episode still to come
         self._early: collections.deque[tuple[str, bytes]] = collections.deque()
         self._last_recorded: dict[str, int] = {}  # of the periodic topics
+        self._early_status: tuple[WorldStatus, bytes] | None = None
 
     # --- episodes -------------------------------------------------------------------
 
@@ -195,6 +196,9 @@ class Recorder:
         early, self._early = self._early, collections.deque()
         for topic, message in early:  # what came before the announcement, in order
             rows += self.route(topic, message)
+        if self._early_status is not None and self._early_status[0].episode == setup.episode:
+            rows += self._apply_status(*self._early_status)[1]  # the status came first
+        self._early_status = None
         return rows
 
     def close(self) -> tuple[Closed | None, list[Row]]:
@@ -233,7 +237,12 @@ class Recorder:
         self.now_ns = max(self.now_ns, status.time_ns)
         episode = self.episode
         if episode is None or status.episode != episode.setup.episode:
+            self._early_status = (status, data)  # perhaps of the episode announced next
             return False, []
+        return self._apply_status(status, data)
+
+    def _apply_status(self, status: WorldStatus, data: bytes) -> tuple[bool, list[Row]]:
+        episode = self.episode
         self.write(STATUS, self.now_ns, data)
         if status.cleaning_events is None:  # a world that does not count: trust the order
             episode.replica.confirmed_ns = NEVER
