@@ -35,7 +35,10 @@ def test_killed_controller_is_counted_and_a_restarted_one_rejoins(swarm, process
     # the world runs 1.5 to 6 sim seconds per wall second depending on the machine's load.
     run = swarm('--population', str(POPULATION), '--duration', '60', '--seed', '5',
                 '-p', 'lockstep_deadline:=0.5')
-    run.wait_running(after=0.5)
+    # Past step 0, whose deadline is start_timeout (new DDS matches may hold its first
+    # messages back): a controller killed before it answers step 0 costs that long.
+    run.wait_for(lambda: 'step 0 done' in run.log('world'), 'step 0')
+    time.sleep(0.5)
     killed_at = time.monotonic()
     os.killpg(run.nodes()['controller_2'], signal.SIGKILL)
     run.wait_for(lambda: 'robots [2] missed 3 steps in a row' in run.log('world'),

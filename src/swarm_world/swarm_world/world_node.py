@@ -149,6 +149,7 @@ class WorldNode(Node):
         self.resend_timer = None  # lockstep, step 0 only
         self.hold_timer = None  # lockstep: a recorder fell behind
         self.held_since = None
+        self._last_heartbeat = self.wall.now()
         self.deadline_period = 0.0
         self.publish_status()
         self.get_logger().info(f'world ready ({self.options.mode}), waiting for an episode')
@@ -390,6 +391,8 @@ class WorldNode(Node):
                       f'more than {self.options.recorder_lag:g} s of sim time behind and did '
                       f'not catch up within {self.options.recorder_timeout:g} s; is the '
                       f'metrics_node alive?', fatal=False)
+        else:
+            self._heartbeat()
         return True
 
     def _arm_deadline(self, period: float) -> None:
@@ -404,12 +407,23 @@ class WorldNode(Node):
     def _resend(self) -> None:
         for i in self.lockstep.waiting():
             self.links[i].resend()
+        self._heartbeat()
+
+    def _heartbeat(self) -> None:
+        """While the world waits (step 0 may take up to start_timeout, a hold up to
+        recorder_timeout), its status says once a second of wall time that it is alive: a
+        recorder takes a silent world for a dead one."""
+        now = self.wall.now()
+        if (now - self._last_heartbeat).nanoseconds >= 1e9:
+            self._last_heartbeat = now
+            self.publish_status()
 
     def _advance(self) -> None:
         """Apply the round's commands, step the world, publish, start the next round."""
         if self.resend_timer is not None:
             self.destroy_timer(self.resend_timer)
             self.resend_timer = None
+            self.get_logger().info(f'episode {self.episode}: step 0 done, stepping')
         self._step()
         self._start_round()
 
