@@ -399,6 +399,13 @@ def tidy_table(folders: Sequence[Path]) -> pd.DataFrame:
     return table.sort_values(list(KEYS) + ['t'], kind='stable', ignore_index=True)
 
 
+def design_factors(table: pd.DataFrame) -> list[str]:
+    """The factors a design declares beyond population, speed and seed: the table's columns
+    that are not :data:`TABLE_COLUMNS`, named by their dotted parameter key (e.g.
+    ``mona.ir_range``), in table order."""
+    return [column for column in table.columns if column not in TABLE_COLUMNS]
+
+
 def write_table(rows: list[dict[str, float]] | pd.DataFrame, path: str | Path) -> None:
     """Write the tidy table as CSV (floats at full precision)."""
     frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows, columns=TABLE_COLUMNS)
