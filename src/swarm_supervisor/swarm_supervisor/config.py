@@ -57,7 +57,7 @@ def default_config_path() -> Path:
 class EpisodeParams:
     """One episode: how many robots, for how long, from which seed."""
 
-    population: int = param(30, unit='robots', low=0, high=1000,
+    population: int = param(30, unit='robots', low=0, high=100_000,
                             doc='number of Monas (N)')
     duration: float = param(4000.0, unit='s', low=0.001, high=1e7,
                             doc='simulated length of the episode')
