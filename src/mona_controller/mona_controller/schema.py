@@ -32,9 +32,14 @@ class Spec:
     low: float | None = None
     high: float | None = None
     choices: tuple[str, ...] | None = None
+    #: A mapping of names to non-empty lists of scalars (e.g. the study's factors), stored as
+    #: a tuple of (name, values) pairs so the section stays frozen and hashable.
+    keyed: bool = False
 
     def describe_range(self) -> str:
         """The allowed values, for error messages and docs."""
+        if self.keyed:
+            return 'a mapping of names to non-empty lists'
         if self.choices is not None:
             return 'one of ' + ', '.join(repr(c) for c in self.choices)
         low = '-inf' if self.low is None else f'{self.low:g}'
@@ -44,9 +49,14 @@ class Spec:
 
 
 def param(default: Any, *, unit: str = '', doc: str, low: float | None = None,
-          high: float | None = None, choices: tuple[str, ...] | None = None) -> Any:
-    """A dataclass field carrying its unit, description and allowed range (inclusive)."""
-    spec = Spec(unit=unit, doc=doc, low=low, high=high, choices=choices)
+          high: float | None = None, choices: tuple[str, ...] | None = None,
+          keyed: bool = False) -> Any:
+    """A dataclass field carrying its unit, description and allowed range (inclusive).
+
+    With ``keyed``, the field is a mapping of names to lists of scalars (default: empty);
+    what the names and values mean is checked by the section that owns it.
+    """
+    spec = Spec(unit=unit, doc=doc, low=low, high=high, choices=choices, keyed=keyed)
     if isinstance(default, list):
         default = tuple(default)
     return dataclasses.field(default=default, metadata={'spec': spec})
@@ -57,8 +67,29 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
     return field.metadata.get('spec')
 
 
+def _coerce_keyed(name: str, value: Any) -> tuple[tuple[str, tuple[Any, ...]], ...]:
+    """A mapping of names to non-empty lists of scalars, as (name, values) pairs in order."""
+    if isinstance(value, tuple):  # already normalised (a copy of a built section)
+        value = dict(value)
+    if not isinstance(value, Mapping):
+        raise ParameterError(f'{name} = {value!r}: expected a mapping of names to lists')
+    pairs = []
+    for key, values in value.items():
+        if not isinstance(key, str) or not key:
+            raise ParameterError(f'{name}: key {key!r} is not a name')
+        if not isinstance(values, (list, tuple)) or not values:
+            raise ParameterError(f'{name}.{key} = {values!r}: expected a non-empty list')
+        if any(not isinstance(v, SCALAR_TYPES) for v in values):
+            raise ParameterError(f'{name}.{key} = {values!r}: expected a list of numbers, '
+                                 'strings or booleans')
+        pairs.append((key, tuple(values)))
+    return tuple(pairs)
+
+
 def _coerce(name: str, value: Any, default: Any, spec: Spec) -> Any:
     """Check one value against its default's type and its spec; return it normalised."""
+    if spec.keyed:
+        return _coerce_keyed(name, value)
     kind = type(default)
     if kind is tuple:
         if not isinstance(value, (list, tuple)) or not value:
@@ -142,6 +173,8 @@ def to_mapping(section: Any) -> dict[str, Any]:
         value = getattr(section, field.name)
         if spec_of(field) is None:
             out[field.name] = to_mapping(value)
+        elif spec_of(field).keyed:
+            out[field.name] = {key: list(values) for key, values in value}
         else:
             out[field.name] = list(value) if isinstance(value, tuple) else value
     return out

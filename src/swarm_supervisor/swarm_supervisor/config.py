@@ -68,9 +68,17 @@ class EpisodeParams:
         validate(self, 'episode.')
 
 
+#: How the extra factors of a study combine (see :class:`StudyParams`).
+FACTOR_DESIGNS = ('crossed', 'one-at-a-time')
+#: Parameters the design sets itself, so they cannot be extra factors.
+DESIGN_KEYS = {'episode.population': 'study.populations', 'controller.speed': 'study.speeds',
+               'episode.seed': 'study.seeds', 'episode.duration': 'study.duration'}
+
+
 @dataclasses.dataclass(frozen=True)
 class StudyParams:
-    """The factorial design of the study (method.md): populations x speeds x seeds."""
+    """The factorial design of the study (method.md): populations x speeds x seeds, crossed
+    with any extra factors: other parameters, each with a list of levels."""
 
     populations: tuple[int, ...] = param((10, 20, 30, 40, 50), unit='robots', low=0,
                                          high=1000, doc='population factor N')
@@ -82,9 +90,21 @@ class StudyParams:
                             doc='episode length')
     snapshot_times: tuple[float, ...] = param((0.0, 1000.0, 4000.0), unit='s', low=0.0,
                                               high=1e7, doc='when to keep cue maps (fig. 3)')
+    factors: tuple = param((), keyed=True,
+                           doc='extra factors: dotted parameter key -> list of levels, e.g. '
+                               '{mona.ir_range: [0.02, 0.05]}')
+    factor_design: str = param('crossed', choices=FACTOR_DESIGNS,
+                               doc="'crossed': every combination of the factors' levels; "
+                                   "'one-at-a-time': each factor varies alone, the others "
+                                   'keep their value in this file (a sensitivity design)')
 
     def __post_init__(self) -> None:
         validate(self, 'study.')
+
+    @property
+    def factor_names(self) -> tuple[str, ...]:
+        """The extra factors' dotted keys, in declared order."""
+        return tuple(key for key, _ in self.factors)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,6 +117,42 @@ class SwarmConfig:
     controller: ControllerParams = dataclasses.field(default_factory=ControllerParams)
     metrics: MetricsParams = dataclasses.field(default_factory=MetricsParams)
     study: StudyParams = dataclasses.field(default_factory=StudyParams)
+
+    def __post_init__(self) -> None:
+        if self.study.factors:
+            object.__setattr__(self, 'study', dataclasses.replace(
+                self.study, factors=self._checked_factors()))
+
+    def _checked_factors(self) -> tuple[tuple[str, tuple[Any, ...]], ...]:
+        """The study's factors with each key checked against the schema and each level
+        validated (and normalised, e.g. 2 -> 2.0) as that parameter's value."""
+        checked = []
+        for key, levels in self.study.factors:
+            where = f'study.factors.{key}'
+            if key in DESIGN_KEYS:
+                raise ParameterError(f'{where}: {key} is set by the design; use '
+                                     f'{DESIGN_KEYS[key]}')
+            section_name, _, name = key.partition('.')
+            section = getattr(self, section_name, None) if section_name != 'study' else None
+            fields = {f.name for f in dataclasses.fields(section)} if \
+                dataclasses.is_dataclass(section) else set()
+            if name not in fields:
+                raise ParameterError(f'{where}: no parameter {key} (a factor is a dotted key '
+                                     'of the episode, mona, world, controller or metrics '
+                                     'section)')
+            if len(set(levels)) != len(levels):
+                raise ParameterError(f'{where} = {list(levels)!r} repeats a level')
+            values = to_mapping(section)
+            normalised = []
+            for level in levels:
+                try:
+                    built = from_mapping(type(section), {**values, name: level},
+                                         f'{section_name}.')
+                except ParameterError as error:
+                    raise ParameterError(f'{where}: {error}') from None
+                normalised.append(getattr(built, name))
+            checked.append((key, tuple(normalised)))
+        return tuple(checked)
 
     def to_dict(self) -> dict[str, Any]:
         """Every parameter as a nested plain mapping (for JSON, YAML and bag metadata)."""
@@ -147,5 +203,8 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
 
 def write_ros_yaml(config: SwarmConfig, path: str | Path) -> None:
     """Write a config as a ROS 2 parameter file that :func:`load_config` reads back."""
-    Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': config.to_dict()}},
+    parameters = config.to_dict()
+    if not parameters['study']['factors']:  # rcl's YAML parser misreads an empty mapping
+        del parameters['study']['factors']
+    Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}},
                                          sort_keys=False))

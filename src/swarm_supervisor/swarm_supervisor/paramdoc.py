@@ -11,6 +11,15 @@ from mona_controller.schema import spec_of
 from swarm_supervisor.config import SwarmConfig
 
 
+def _shown(default, spec) -> str:
+    """A default as the page shows it."""
+    if spec.keyed:
+        return '{}' if not default else str(dict(default))
+    if isinstance(default, tuple):
+        return ', '.join(f'{v:g}' if isinstance(v, float) else str(v) for v in default)
+    return f'{default:g}' if isinstance(default, float) else str(default)
+
+
 def render() -> str:
     """The parameter reference as Markdown: one table per section."""
     lines = ['# Parameters', '',
@@ -23,14 +32,12 @@ def render() -> str:
     config = SwarmConfig()
     for section in dataclasses.fields(SwarmConfig):
         instance = getattr(config, section.name)
-        lines += [f'## `{section.name}`', '', (type(instance).__doc__ or '').strip(), '',
+        lines += [f'## `{section.name}`', '', ' '.join((type(instance).__doc__ or '').split()), '',
                   '| key | default | unit | allowed | meaning |', '|---|---|---|---|---|']
         for field in dataclasses.fields(instance):
             spec = spec_of(field)
             default = getattr(instance, field.name)
-            shown = ', '.join(f'{v:g}' if isinstance(v, float) else str(v) for v in default) \
-                if isinstance(default, tuple) else (f'{default:g}' if isinstance(default, float)
-                                                    else str(default))
+            shown = _shown(default, spec)
             allowed = spec.describe_range().replace(f' {spec.unit}', '') if spec.unit else \
                 spec.describe_range()
             lines.append(f'| `{section.name}.{field.name}` | {shown} | {spec.unit} | '
