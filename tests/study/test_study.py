@@ -2,6 +2,7 @@
 redoing a half-written episode, analysing episode folders, and Ctrl-C."""
 
 import csv
+import dataclasses
 import json
 import os
 import shutil
@@ -169,7 +170,7 @@ def test_quick_design_is_small_and_keeps_every_output():
     assert len(quick.seeds) == 2 and quick.duration == 60.0
     assert quick.snapshot_times == (0.0, 15.0, 60.0)
     assert study.snapshot_times(quick) == (0.0, 15.0, 60.0)
-    assert len(study.design(quick)) == 8
+    assert len(study.design(dataclasses.replace(load_config(), study=quick))) == 8
 
 
 @pytest.mark.slow

@@ -1,12 +1,19 @@
-"""The study as data: populations x speeds x seeds, run in parallel, resumable, as one table.
+"""The study as data: populations x speeds x extra factors x seeds, run in parallel,
+resumable, as one table.
 
-Each episode of the design gets a folder ``DIR/episodes/N<pop>_v<cm/s>_s<seed>/`` written by
+Any parameter of the schema can be an extra factor (``study.factors``, e.g.
+``mona.ir_range: [0.02, 0.05]``), crossed with the others or, for a sensitivity design,
+varied one at a time (``study.factor_design``). Each episode of the design gets a folder
+``DIR/episodes/N<pop>_v<cm/s>_s<seed>[_<key>=<level>...]/`` written by
 :func:`swarm_supervisor.outputs.write_episode`; its episode.json is written last, so a folder
 without it is half-written and is run again, while a complete one is kept. The episodes of a
 study (or any folders holding metrics.csv + episode.json, e.g. from ROS bags) become one tidy
 table, ``all_metrics.csv``, with one row per episode and sample::
 
-    population, speed, seed, t, mean_cue, mean_cue_fraction, ratio_near_source, coherency
+    population, speed, seed, [factors...,] t, mean_cue, mean_cue_fraction, ratio_near_source,
+    coherency
+
+where each extra factor is a column named by its dotted key.
 
 ``speed`` is in m/s, like every speed in the parameter file.
 """
@@ -33,7 +40,7 @@ from mona_controller.schema import ParameterError
 from swarm_metrics.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS
 from swarm_supervisor import outputs
-from swarm_supervisor.config import StudyParams, SwarmConfig, write_ros_yaml
+from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, write_ros_yaml
 from swarm_supervisor.runner import run_episode
 
 EPISODES_DIR = 'episodes'
@@ -59,21 +66,66 @@ class EpisodeSpec:
     population: int
     speed: float  #: m/s
     seed: int
+    #: The extra factors' values in this episode, (dotted key, value) in declared order.
+    levels: tuple[tuple[str, Any], ...] = ()
+    #: The levels that name the episode: all of them in a crossed design, only the one that
+    #: differs from the parameter file in a one-at-a-time design.
+    named: tuple[tuple[str, Any], ...] = ()
 
     @property
     def name(self) -> str:
-        """The episode's folder name, e.g. ``N30_v8_s1`` (speed in cm/s)."""
-        return f'N{self.population}_v{self.speed * 100:g}_s{self.seed}'
+        """The episode's folder name, e.g. ``N30_v8_s1`` (speed in cm/s), followed by its
+        named factor levels, e.g. ``N30_v8_s1_mona.ir_range=0.05``."""
+        return f'N{self.population}_v{self.speed * 100:g}_s{self.seed}' + ''.join(
+            f'_{key}={_level_text(value)}' for key, value in self.named)
 
 
-def design(study: StudyParams) -> list[EpisodeSpec]:
-    """Every episode of the design, in factor order (populations, then speeds, then seeds)."""
-    return [EpisodeSpec(n, v, s) for n, v, s in
-            itertools.product(study.populations, study.speeds, study.seeds)]
+def _level_text(value: Any) -> str:
+    """A factor level in a folder name: the shortest exact text of a number."""
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def factor_cells(config: SwarmConfig) -> list[tuple[tuple[tuple[str, Any], ...],
+                                                   tuple[tuple[str, Any], ...]]]:
+    """The combinations of extra factor levels: (levels, named levels) of each.
+
+    Crossed: every combination. One-at-a-time: the parameter file's values, then each level
+    of each factor that differs from them with the other factors at the file's values.
+    """
+    study = config.study
+    if not study.factors:
+        return [((), ())]
+    base = tuple((key, parameter_value(config, key)) for key in study.factor_names)
+    if study.factor_design == 'crossed':
+        cells = itertools.product(*([(key, v) for v in values] for key, values in study.factors))
+        return [(cell, cell) for cell in map(tuple, cells)]
+    cells = [(base, ())]
+    for index, (key, values) in enumerate(study.factors):
+        for value in values:
+            if value != base[index][1]:
+                cell = base[:index] + ((key, value),) + base[index + 1:]
+                cells.append((cell, ((key, value),)))
+    return cells
+
+
+def parameter_value(config: SwarmConfig, key: str) -> Any:
+    """The value of a dotted parameter key, e.g. ``mona.ir_range``."""
+    section, _, name = key.partition('.')
+    return getattr(getattr(config, section), name)
+
+
+def design(config: SwarmConfig) -> list[EpisodeSpec]:
+    """Every episode of the study's design, in factor order: populations, speeds, the extra
+    factors (:func:`factor_cells`), then seeds."""
+    study = config.study
+    return [EpisodeSpec(n, v, s, levels, named)
+            for n, v, (levels, named), s in itertools.product(
+                study.populations, study.speeds, factor_cells(config), study.seeds)]
 
 
 def quick_study(study: StudyParams) -> StudyParams:
-    """A reduced design for a smoke test: N = 5 and 10, the same speeds, two seeds, 60 s.
+    """A reduced design for a smoke test: N = 5 and 10, the same speeds and extra factors,
+    two seeds, 60 s.
 
     The snapshot times are scaled from the full duration to the short one, so fig. 3 still
     shows the start, an intermediate and the end of the episode.
@@ -87,10 +139,14 @@ def quick_study(study: StudyParams) -> StudyParams:
 
 def episode_config(config: SwarmConfig, spec: EpisodeSpec) -> SwarmConfig:
     """The full configuration of one episode of ``config.study``."""
-    return config.replace(
-        episode={'population': spec.population, 'seed': spec.seed,
-                 'duration': config.study.duration},
-        controller={'speed': spec.speed})
+    sections: dict[str, dict[str, Any]] = {
+        'episode': {'population': spec.population, 'seed': spec.seed,
+                    'duration': config.study.duration},
+        'controller': {'speed': spec.speed}}
+    for key, value in spec.levels:
+        section, _, name = key.partition('.')
+        sections.setdefault(section, {})[name] = value
+    return config.replace(**sections)
 
 
 def snapshot_times(study: StudyParams) -> tuple[float, ...]:
@@ -191,7 +247,7 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
     study = config.study
     times = snapshot_times(study)
-    specs = design(study)
+    specs = design(config)
     folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
     pending = []
     for spec in specs:
@@ -205,7 +261,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     pending.sort(key=lambda task: -task[0].episode.population * task[0].episode.duration)
     jobs = max(1, min(jobs or _available_cpus(), len(pending) or 1))
     ran = _run_pending(pending, jobs, progress, start_method)
-    rows = tidy_table([folders[spec] for spec in specs]).to_dict('records')
+    rows = tidy_table([folders[spec] for spec in specs],
+                      factors=study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
     _record_invocation(out / TIMING_FILE, {
         'started': stamp,
@@ -355,35 +412,78 @@ def incomplete_episodes(folders: Iterable[Path]) -> dict[Path, list[Finding]]:
     return {folder: findings for folder, findings in found.items() if findings}
 
 
-def episode_key(folder: Path) -> dict[str, Any]:
-    """The factor levels of an episode folder, from its episode.json (either runner's)."""
+def _read_record(folder: Path) -> dict[str, Any]:
     try:
-        record = json.loads((folder / outputs.EPISODE_FILE).read_text())
-        parameters = record.get('parameters', {})
-        return {
+        return json.loads((folder / outputs.EPISODE_FILE).read_text())
+    except (OSError, ValueError) as error:
+        raise StudyError(f'{folder / outputs.EPISODE_FILE}: {error}') from None
+
+
+def _parameter(record: dict[str, Any], key: str) -> Any:
+    section, _, name = key.partition('.')
+    return record.get('parameters', {}).get(section, {}).get(name)
+
+
+def episode_key(folder: Path, factors: Sequence[str] = ()) -> dict[str, Any]:
+    """The factor levels of an episode folder, from its episode.json (either runner's):
+    population, speed, seed and the values of the extra ``factors`` (dotted keys)."""
+    record = _read_record(folder)
+    parameters = record.get('parameters', {})
+    try:
+        key = {
             'population': int(record.get('population',
                                          parameters.get('episode', {}).get('population'))),
             'speed': float(record.get('speed', parameters.get('controller', {}).get('speed'))),
             'seed': int(record.get('seed', parameters.get('episode', {}).get('seed'))),
         }
-    except (OSError, ValueError, TypeError, AttributeError) as error:
+    except (ValueError, TypeError, AttributeError) as error:
         raise StudyError(f'{folder / outputs.EPISODE_FILE}: cannot read population, speed '
                          f'and seed ({error})') from None
+    for name in factors:
+        value = _parameter(record, name)
+        if value is None:
+            raise StudyError(f'{folder / outputs.EPISODE_FILE} has no parameter {name}')
+        key[name] = value
+    return key
 
 
-def tidy_table(folders: Sequence[Path]) -> pd.DataFrame:
-    """All episodes as one table (columns :data:`TABLE_COLUMNS`), sorted by episode and t.
+def varying_parameters(folders: Sequence[Path]) -> list[str]:
+    """The parameters (dotted keys) whose values differ between the episodes, other than
+    those the design sets itself: the extra factors of a set of episodes whose study is not
+    known (e.g. ``study --from-episodes``), in the schema's order."""
+    records = [_read_record(Path(folder)) for folder in folders]
+    names = []
+    for section, fields in SwarmConfig().to_dict().items():
+        if section == 'study':
+            continue
+        for name in fields:
+            key = f'{section}.{name}'
+            if key in DESIGN_KEYS:
+                continue
+            values = {json.dumps(_parameter(record, key), sort_keys=True) for record in records}
+            if len(values) > 1:
+                names.append(key)
+    return names
+
+
+def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) -> pd.DataFrame:
+    """All episodes as one table, sorted by episode and t: columns population, speed, seed,
+    the extra ``factors`` (dotted keys; default: the parameters that vary between the
+    folders, :func:`varying_parameters`), then t and the metrics.
 
     Raises:
         StudyError: a folder's files are unreadable, or two folders hold the same episode.
     """
+    folders = [Path(folder) for folder in folders]
+    factors = list(varying_parameters(folders) if factors is None else factors)
     frames, seen = [], {}
-    for folder in map(Path, folders):
-        key = episode_key(folder)
-        identity = tuple(key.values())
+    for folder in folders:
+        key = episode_key(folder, factors)
+        identity = json.dumps(list(key.values()))
         if identity in seen:
             raise StudyError(f'{seen[identity]} and {folder} are the same episode (N, speed, '
-                             'seed); analyse them separately')
+                             'seed' + ''.join(f', {name}' for name in factors) +
+                             '); analyse them separately')
         seen[identity] = folder
         try:
             metrics = pd.read_csv(folder / outputs.METRICS_FILE)
@@ -395,8 +495,9 @@ def tidy_table(folders: Sequence[Path]) -> pd.DataFrame:
         frames.append(metrics[list(COLUMNS)].assign(**key))
     if not frames:
         raise StudyError('no episodes to tabulate')
-    table = pd.concat(frames, ignore_index=True)[list(TABLE_COLUMNS)]
-    return table.sort_values(list(KEYS) + ['t'], kind='stable', ignore_index=True)
+    columns = list(KEYS) + factors + list(COLUMNS)
+    table = pd.concat(frames, ignore_index=True)[columns]
+    return table.sort_values(list(KEYS) + factors + ['t'], kind='stable', ignore_index=True)
 
 
 def design_factors(table: pd.DataFrame) -> list[str]:
@@ -408,7 +509,8 @@ def design_factors(table: pd.DataFrame) -> list[str]:
 
 def write_table(rows: list[dict[str, float]] | pd.DataFrame, path: str | Path) -> None:
     """Write the tidy table as CSV (floats at full precision)."""
-    frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows, columns=TABLE_COLUMNS)
+    frame = rows if isinstance(rows, pd.DataFrame) else \
+        pd.DataFrame(rows, columns=list(rows[0]) if rows else TABLE_COLUMNS)
     frame.to_csv(path, index=False)
 
 

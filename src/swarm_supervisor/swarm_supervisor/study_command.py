@@ -13,6 +13,7 @@ import pandas as pd
 from swarm_metrics.completeness import describe
 from swarm_supervisor import study
 from swarm_supervisor.arguments import bounded
+from swarm_supervisor.claims import all_claims
 from swarm_supervisor.config import load_config
 from swarm_supervisor.report import analyse
 
@@ -43,6 +44,9 @@ def register(subparsers) -> None:
                         help='with --from-episodes: analyse episodes whose record is '
                              'incomplete (a gap, no finished status, ...) anyway; report.md '
                              'lists them and what they lack')
+    parser.add_argument('--claims', type=Path, action='append', default=[], metavar='YAML',
+                        help="claims of your own to check beside the paper's (repeatable; "
+                             'format: swarm_supervisor/paper_claims.yaml)')
     parser.set_defaults(handler=run)
 
 
@@ -53,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
         0; 1 when --from-episodes finds an incomplete episode (without --allow-incomplete).
     """
     started = time.perf_counter()
+    all_claims(args.claims)  # a bad claims file fails now, not after the episodes
     if args.from_episodes:
         return from_episodes(args, started)
     if args.allow_incomplete:
@@ -62,9 +67,9 @@ def run(args: argparse.Namespace) -> int:
     if args.quick:
         config = dataclasses.replace(config, study=study.quick_study(config.study))
     rows = study.run_study(config, args.out, jobs=args.jobs)
-    folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config.study)]
+    folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
-                     parameters_file=study.PARAMETERS_FILE)
+                     parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
     last = study.read_invocations(args.out)[-1]
     print(f'{report}: {last["episodes"]} episodes ({last["ran"]} run, {last["kept"]} kept) '
           f'in {time.perf_counter() - started:.1f} s')
@@ -91,7 +96,7 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
               file=sys.stderr)
         return 1
     report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
-                     incomplete=incomplete)
+                     incomplete=incomplete, claims_files=args.claims)
     flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''
     print(f'{report}: {len(folders)} episodes analysed{flagged} in '
           f'{time.perf_counter() - started:.1f} s')
