@@ -1,5 +1,8 @@
 """The paper's figures 3-6 from the study's tidy table (and, for fig. 3, cue-map snapshots).
 
+A design with extra factors (``study.factors``) gets one panel per factor level in figures
+4-6 (:func:`variants`); the paper's layout is kept otherwise.
+
 Each ``fig*`` function writes one PNG and returns a note: empty when the figure shows exactly
 what the paper's does, otherwise what it shows instead (a custom design may lack N = 30 or
 8 cm/s; the nearest levels are used and the title says so).
@@ -18,6 +21,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from swarm_supervisor.plots import draw_cue_map  # noqa: E402
+from swarm_supervisor.study import design_factors  # noqa: E402
 
 FIG3 = 'fig3_cue_maps.png'
 FIG4 = 'fig4_mean_cue.png'
@@ -142,35 +146,84 @@ def fig3_cue_maps(snapshots: Mapping[str, np.ndarray], path: str | Path, *, popu
     return '; '.join(notes)
 
 
+def variants(table: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """The table split by the design's extra factors (one facet each), with a label.
+
+    Without extra factors: one variant, the whole table, label ''. When every variant differs
+    from the most common value of each factor in at most one factor (a one-at-a-time
+    design), a label names only that factor ('mona.ir_range = 0.05', or 'as the parameter
+    file'); otherwise it names every factor.
+    """
+    factors = design_factors(table)
+    if not factors:
+        return [('', table)]
+    groups = [(values if isinstance(values, tuple) else (values,), rows)
+              for values, rows in table.groupby(factors, sort=True)]
+    modal = [pd.Series([values[k] for values, _ in groups]).mode()[0]
+             for k in range(len(factors))]
+    differing = [[k for k, value in enumerate(values) if value != modal[k]]
+                 for values, _ in groups]
+    one_at_a_time = len(factors) > 1 and all(len(d) <= 1 for d in differing)
+    out = []
+    for (values, rows), diff in zip(groups, differing):
+        shown = diff if one_at_a_time else range(len(factors))
+        label = ', '.join(f'{factors[k]} = {values[k]}' for k in shown) or \
+            'as the parameter file'
+        out.append((label, rows))
+    return out
+
+
+def _grid(panels: int, columns: int, size: tuple[float, float], **options):
+    """A figure with ``panels`` axes in rows of ``columns``; unused axes are hidden."""
+    columns = max(1, min(columns, panels))
+    rows = -(-panels // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(size[0] * columns, size[1] * rows + 0.6),
+                             squeeze=False, layout='constrained', **options)
+    flat = list(axes.flat)
+    for ax in flat[panels:]:
+        ax.set_visible(False)
+    return fig, flat[:panels]
+
+
 def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float) -> str:
-    """Mean cue vs time, one curve per N (median over seeds), one panel per speed.
+    """Mean cue vs time, one curve per N (median over seeds), one panel per speed (and per
+    level of the design's extra factors, :func:`variants`).
 
     Args:
         initial_mean: the arena mean of the initial cue, for the percentage axis.
     """
     speeds = sorted(table['speed'].unique(), reverse=True)  # the paper: (a) 8, (b) 4 cm/s
-    stats = over_seeds(table, 'mean_cue')
+    facets = variants(table)
     colours = _colours(table['population'].unique())
-    fig, axes = plt.subplots(1, len(speeds), figsize=(6.2 * len(speeds), 4.6), sharey=True,
-                             squeeze=False, layout='constrained')
-    for ax, speed, letter in zip(axes[0], speeds, 'abcdefgh'):
+    faceted = len(facets) > 1
+    size = (4.2, 3.2) if faceted else (6.2, 4.6)
+    fig, axes = _grid(len(facets) * len(speeds), len(speeds) * (2 if faceted else 1), size,
+                      sharey=True)
+    panels = [(label, rows, speed) for label, rows in facets for speed in speeds]
+    for k, (ax, (label, rows, speed)) in enumerate(zip(axes, panels)):
+        stats = over_seeds(rows, 'mean_cue')
         for n in sorted(stats['population'].unique(), reverse=True):
             curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
             if len(curve):
                 ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
                         label=f'N = {n}')
-        ax.set_title(f'({letter}) v = {speed_label(speed)}')
+        letter = f'({chr(ord("a") + k)}) ' if k < 26 else ''
+        ax.set_title(f'{letter}v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
+                     fontsize='small' if faceted else 'medium')
         ax.set_xlabel('time (s)')
         ax.set_xlim(0, table['t'].max())
         ax.set_ylim(0, None)
         ax.grid(alpha=0.3)
-        ax.legend(title='robots', fontsize='small', loc='best')
-        if initial_mean > 0:
+        if k == 0 or not faceted:
+            ax.legend(title='robots', fontsize='small', loc='best')
+        if initial_mean > 0 and not faceted:
             right = ax.secondary_yaxis('right', functions=(
                 lambda y: 100 * y / initial_mean, lambda p: p * initial_mean / 100))
-            if ax is axes[0][-1]:
+            if ax is axes[-1]:
                 right.set_ylabel('% of the initial mean cue')
-    axes[0][0].set_ylabel('arena mean cue (intensity units, 0..255)')
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel('arena mean cue (0..255)' if faceted else
+                          'arena mean cue (intensity units, 0..255)')
     fig.suptitle(f'Fig. 4  Mean cue vs time (median over {seeds_label(table)})')
     _finish(fig, path)
     return '' if list(speeds) == [0.08, 0.04] else \
@@ -187,7 +240,8 @@ def _three_populations(table: pd.DataFrame) -> tuple[pd.DataFrame, list[int], fl
 
 def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radius: float,
                            smooth: float | None = None) -> str:
-    """The fraction of robots within r_c of the source vs time, N = 10, 30, 50 at 8 cm/s.
+    """The fraction of robots within r_c of the source vs time, N = 10, 30, 50 at 8 cm/s
+    (one panel per level of the design's extra factors, :func:`variants`).
 
     Args:
         smooth: the width (s) of the centred moving average over the median curve (default:
@@ -197,48 +251,68 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
     chosen, populations, speed, note = _three_populations(table)
     if smooth is None:
         smooth = float(chosen['t'].max()) / 200
-    stats = over_seeds(chosen, 'ratio_near_source')
     colours = _colours(table['population'].unique())
-    fig, ax = plt.subplots(figsize=(7.5, 4.6), layout='constrained')
-    for n in sorted(populations, reverse=True):
-        curve = stats[stats['population'] == n].sort_values('t')
-        step = float(np.median(np.diff(curve['t']))) if len(curve) > 1 else 1.0
-        window = max(1, int(round(smooth / step)))
-        line = curve['median'].rolling(window, center=True, min_periods=1).mean()
-        ax.plot(curve['t'], line, color=colours[n], linewidth=1.6, label=f'N = {n}')
-    ax.set_xlabel('time (s)')
-    ax.set_ylabel(f'fraction of robots within {source_radius:g} m of the source')
-    ax.set_xlim(0, chosen['t'].max())
-    ax.set_ylim(0, 1.02)  # a swarm all near the source sits at 1: keep that line visible
-    ax.grid(alpha=0.3)
-    ax.legend(title='robots', loc='best')
-    ax.set_title(f'Fig. 5  Robots near the source, v = {speed_label(speed)}\n'
-                 f'median over {seeds_label(chosen)}, {smooth:.3g}-s moving average'
-                 + (f'\n{note}' if note else ''), fontsize='medium')
+    facets = variants(chosen)
+    faceted = len(facets) > 1
+    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    for ax, (label, rows) in zip(axes, facets):
+        stats = over_seeds(rows, 'ratio_near_source')
+        for n in sorted(populations, reverse=True):
+            curve = stats[stats['population'] == n].sort_values('t')
+            step = float(np.median(np.diff(curve['t']))) if len(curve) > 1 else 1.0
+            window = max(1, int(round(smooth / step)))
+            line = curve['median'].rolling(window, center=True, min_periods=1).mean()
+            ax.plot(curve['t'], line, color=colours[n], linewidth=1.6, label=f'N = {n}')
+        ax.set_xlabel('time (s)')
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel(f'fraction within {source_radius:g} m of the source')
+        ax.set_xlim(0, chosen['t'].max())
+        ax.set_ylim(0, 1.02)  # a swarm all near the source sits at 1: keep that line visible
+        ax.grid(alpha=0.3)
+        if faceted:
+            ax.set_title(label, fontsize='small')
+    axes[0].legend(title='robots', loc='best', fontsize='small' if faceted else None)
+    title = (f'Fig. 5  Robots near the source, v = {speed_label(speed)}\n'
+             f'median over {seeds_label(chosen)}, {smooth:.3g}-s moving average'
+             + (f'\n{note}' if note else ''))
+    if faceted:
+        fig.suptitle(title)
+    else:
+        axes[0].set_title(title, fontsize='medium')
     _finish(fig, path)
     return note
 
 
 def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
-    """Median coherency vs time with a min-max band over seeds, N = 10, 30, 50 at 8 cm/s."""
+    """Median coherency vs time with a min-max band over seeds, N = 10, 30, 50 at 8 cm/s
+    (one panel per level of the design's extra factors, :func:`variants`)."""
     chosen, populations, speed, note = _three_populations(table)
-    stats = over_seeds(chosen, 'coherency')
     colours = _colours(table['population'].unique())
-    fig, ax = plt.subplots(figsize=(7.5, 4.6), layout='constrained')
-    for n in sorted(populations, reverse=True):
-        curve = stats[stats['population'] == n].sort_values('t')
-        ax.fill_between(curve['t'], curve['min'], curve['max'], color=colours[n], alpha=0.25,
-                        linewidth=0)
-        ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
-                label=f'N = {n} (median; band: min-max)')
-    ax.set_xlabel('time (s)')
-    ax.set_ylabel('coherency: mean pairwise distance (m)')
-    ax.set_xlim(0, chosen['t'].max())
-    ax.set_ylim(0, None)
-    ax.grid(alpha=0.3)
-    ax.legend(title='robots', fontsize='small')
-    ax.set_title(f'Fig. 6  Coherency (lower = tighter swarm), v = {speed_label(speed)}\n'
-                 f'median and min-max over {seeds_label(chosen)}'
-                 + (f'\n{note}' if note else ''), fontsize='medium')
+    facets = variants(chosen)
+    faceted = len(facets) > 1
+    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    for ax, (label, rows) in zip(axes, facets):
+        stats = over_seeds(rows, 'coherency')
+        for n in sorted(populations, reverse=True):
+            curve = stats[stats['population'] == n].sort_values('t')
+            ax.fill_between(curve['t'], curve['min'], curve['max'], color=colours[n],
+                            alpha=0.25, linewidth=0)
+            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
+                    label=f'N = {n} (median; band: min-max)')
+        ax.set_xlabel('time (s)')
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel('coherency: mean pairwise distance (m)')
+        ax.set_xlim(0, chosen['t'].max())
+        ax.set_ylim(0, None)
+        ax.grid(alpha=0.3)
+        if faceted:
+            ax.set_title(label, fontsize='small')
+    axes[0].legend(title='robots', fontsize='small')
+    title = (f'Fig. 6  Coherency (lower = tighter swarm), v = {speed_label(speed)}\n'
+             f'median and min-max over {seeds_label(chosen)}' + (f'\n{note}' if note else ''))
+    if faceted:
+        fig.suptitle(title)
+    else:
+        axes[0].set_title(title, fontsize='medium')
     _finish(fig, path)
     return note
