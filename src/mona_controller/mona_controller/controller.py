@@ -21,6 +21,9 @@ from mona_controller.schema import ParameterError, param, validate
 FOLLOW, AVOID, WAIT, TURN = 0, 1, 2, 3
 STATE_NAMES = ('follow', 'avoid', 'wait', 'turn')
 
+#: What a robot does at a wall (docs/model.md).
+AVOID_MODES = ('turn-away', 'random-turn')
+
 #: The stream id of controller random generators (placement uses another).
 CONTROLLER_STREAM = 1
 
@@ -43,6 +46,10 @@ class ControllerParams:
                             doc='largest turn after a wait (180 deg)')
     turn_speed: float = param(0.04, unit='m/s', low=0.001, high=1.0,
                               doc='wheel speed while turning in place (walls, after a wait)')
+    avoid: str = param('turn-away', choices=AVOID_MODES,
+                       doc="at a wall: 'turn-away' turns in place away from it until no beam "
+                           "sees it; 'random-turn' turns by U[turn_min, turn_max] in a random "
+                           'direction, blind, as after a wait (classic BEECLUST)')
 
     def __post_init__(self) -> None:
         validate(self, 'controller.')
@@ -116,6 +123,14 @@ class SwarmController:
         self.rngs = [np.random.default_rng([seed, CONTROLLER_STREAM, int(i)])
                      for i in self.robot_ids]
 
+    def _start_turn(self, i: int, now: float) -> None:
+        """Robot ``i`` turns in place by U[turn_min, turn_max] in a random direction, blind."""
+        rng = self.rngs[i]
+        angle = rng.uniform(self.params.turn_min, self.params.turn_max)
+        self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
+        self.state[i] = TURN
+        self.until[i] = now + angle / self.turn_rate
+
     def step(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
              now: float) -> Command:
         """Advance every robot's behaviour and answer its wheel and cleaner commands.
@@ -139,11 +154,7 @@ class SwarmController:
                 if state[i] == TURN:
                     state[i] = FOLLOW
                     continue
-                rng = self.rngs[i]
-                angle = rng.uniform(self.params.turn_min, self.params.turn_max)
-                self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
-                state[i] = TURN
-                until[i] = now + angle / self.turn_rate
+                self._start_turn(i, now)
         state[(state == AVOID) & ~wall_seen] = FOLLOW
 
         if robot_seen.any():
@@ -156,7 +167,10 @@ class SwarmController:
 
         if wall_seen.any():
             start_avoid = np.flatnonzero(wall_seen & (state == FOLLOW))
-            if len(start_avoid):
+            if len(start_avoid) and self.params.avoid == 'random-turn':
+                for i in start_avoid:
+                    self._start_turn(i, now)
+            elif len(start_avoid):
                 # Turn away from the side the wall is on (bearings > 0 are on the left).
                 side = wall_beams[start_avoid] @ self.bearings
                 self.turn_direction[start_avoid] = np.where(side > 0, -1.0, 1.0)

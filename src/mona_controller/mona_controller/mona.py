@@ -28,6 +28,9 @@ class MonaParams:
                                     doc='wheel speed of one command unit (beta = 6 is 8 cm/s)')
     max_wheel_command: float = param(10.0, unit='wheel units', low=0.1, high=100.0,
                                      doc='the largest wheel command (eq. 2 clamps to [0, this])')
+    ground_footprint: float = param(0.0, unit='m', low=0.0, high=0.1,
+                                    doc='side of the square floor area each ground sensor '
+                                        'averages (0: the one cue cell under it)')
     ir_count: int = param(5, unit='sensors', low=1, high=16,
                           doc='front IR proximity sensors, spread evenly over ir_span')
     ir_span: float = param(2.4434609527920612, unit='rad', low=0.0, high=6.283185307179586,

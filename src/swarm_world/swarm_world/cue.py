@@ -52,3 +52,26 @@ def clean(cue: np.ndarray, cells: np.ndarray, kernel: np.ndarray, *,
         patch = kernel[r0 - row + radius:r1 - row + radius, c0 - col + radius:c1 - col + radius]
         base = cue[r0:r1, c0:c1] if literal_levels is None else np.float32(literal_levels[k])
         np.maximum(base - patch, 0.0, out=cue[r0:r1, c0:c1])
+
+
+def footprint_cells(footprint: float, cell_size: float) -> int:
+    """The half-width in cells of a ground sensor's square footprint of side ``footprint``
+    (m): 0 reads one cell, 1 the mean of 3 x 3 cells, and so on."""
+    return max(0, int(round((footprint / cell_size - 1) / 2)))
+
+
+def sensed_field(cue: np.ndarray, half_width: int) -> np.ndarray:
+    """What a ground sensor with a square footprint reads at each cell: the mean of the
+    (2 * half_width + 1)^2 cells around it that lie in the arena (``cue`` itself for 0)."""
+    if half_width == 0:
+        return cue
+    size = cue.shape[0]
+    # Box sums from a zero-padded 2-D cumulative sum: O(cells) whatever the footprint.
+    summed = np.zeros((size + 1, size + 1))
+    summed[1:, 1:] = cue.astype(np.float64).cumsum(axis=0).cumsum(axis=1)
+    low = np.clip(np.arange(size) - half_width, 0, size)
+    high = np.clip(np.arange(size) + half_width + 1, 0, size)
+    box = (summed[high][:, high] - summed[low][:, high] - summed[high][:, low]
+           + summed[low][:, low])
+    counts = np.outer(high - low, high - low)
+    return (box / counts).astype(cue.dtype)

@@ -45,6 +45,8 @@ class World:
         self.initial_mean_cue = float(self.initial_cue.mean(dtype=np.float64))
         self.kernel = cue_field.cleaning_kernel(params.cleaning_radius, params.cleaning_peak)
         self.cue = self.initial_cue.copy()
+        self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
+        self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
         self.physics = self._physics(np.zeros((0, 3)))
         self.time_ns = 0
         self.steps = 0
@@ -70,6 +72,7 @@ class World:
         """Start an episode: restore the cue, rebuild the physics with robots at ``poses``."""
         poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         self.cue = self.initial_cue.copy()
+        self._sensed = None
         self.physics = self._physics(poses)
         self.time_ns = 0
         self.steps = 0
@@ -83,7 +86,9 @@ class World:
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
         poses = self.poses
-        ground = ground_readings(self.cue, self.params.cell_size, poses,
+        if self._sensed is None:
+            self._sensed = cue_field.sensed_field(self.cue, self.footprint)
+        ground = ground_readings(self._sensed, self.params.cell_size, poses,
                                  self.mona.wheel_separation)
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
                                      self.mona.ir_range, self.params.arena_side)
@@ -111,6 +116,7 @@ class World:
     def _clean(self, robots: np.ndarray) -> None:
         """Eq. 3 under each cleaning robot, in robot order."""
         clean_under(self.cue, self.poses[robots], self.params, self.mona, self.kernel)
+        self._sensed = None
 
 
 def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: MonaParams,
@@ -125,6 +131,8 @@ def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: M
     cells = cue_field.cell_index(poses[:, :2], params.cell_size, params.cells)
     levels = None
     if params.cleaning == 'literal':
-        ground = ground_readings(cue, params.cell_size, poses, mona.wheel_separation)
+        sensed = cue_field.sensed_field(
+            cue, cue_field.footprint_cells(mona.ground_footprint, params.cell_size))
+        ground = ground_readings(sensed, params.cell_size, poses, mona.wheel_separation)
         levels = ground.astype(np.float64).mean(axis=1)
     cue_field.clean(cue, cells, kernel, literal_levels=levels)
