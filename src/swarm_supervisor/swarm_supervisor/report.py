@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from swarm_supervisor import anova as anova_tables
+from swarm_supervisor import claims as claim_checks
 from swarm_supervisor import figures
 from swarm_metrics.completeness import Finding
 from swarm_supervisor import __version__, outputs, study
@@ -51,7 +52,8 @@ def _records(folders: Sequence[Path]) -> list[dict[str, Any]]:
 def analyse(out_dir: str | Path, folders: Sequence[Path], *,
             table: pd.DataFrame | None = None, sources: Sequence[str] = (),
             parameters_file: str | None = None,
-            incomplete: Mapping[Path, Sequence[Finding]] | None = None) -> Path:
+            incomplete: Mapping[Path, Sequence[Finding]] | None = None,
+            claims_files: Sequence[str | Path] = ()) -> Path:
     """Write every result of a study of the episodes in ``folders`` into ``out_dir``.
 
     Args:
@@ -61,6 +63,8 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
         incomplete: the folders whose record is incomplete and what each lacks
             (:func:`swarm_supervisor.study.incomplete_episodes`; default: what their
             episode.json records), listed in the report.
+        claims_files: claims files checked beside the paper's claims
+            (:func:`swarm_supervisor.claims.all_claims`).
 
     Returns:
         The path of report.md.
@@ -80,9 +84,11 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
     for response, name in ANOVA_FILES.items():
         tables[response] = anova_tables.anova(table, response)
         anova_tables.write_anova(tables[response], out / name)
+    compared = claim_checks.evaluate_levels(table, claim_checks.all_claims(claims_files))
     path = out / REPORT_FILE
     path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
-                           parameters_file=parameters_file, incomplete=incomplete))
+                           parameters_file=parameters_file, incomplete=incomplete,
+                           compared=compared))
     return path
 
 
@@ -279,6 +285,31 @@ def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
 
 # Rendering.
 
+def compared_section(compared: Sequence[tuple[dict[str, Any],
+                                              Sequence[claim_checks.ClaimResult]]]) -> list[str]:
+    """'Compared with the paper': each claim, the paper's words, ours, and whether it holds
+    (one table per combination of the design factors' levels)."""
+    lines = ['## Compared with the paper', '',
+             "*Each finding of the paper's results section (and any claims added with "
+             '`--claims`), checked on the table above by the check its claims file names '
+             '(`swarm_supervisor/paper_claims.yaml`); medians over seeds.*', '']
+    for levels, results in compared:
+        if levels:
+            lines += ['### ' + ', '.join(f'{name} = {value}' for name, value in levels.items()),
+                      '']
+        counts = {status: sum(r.status == status for r in results)
+                  for status in claim_checks.STATUSES}
+        lines += [', '.join(f'{count} {status}' for status, count in counts.items()
+                            if count) + '.', '']
+        frame = pd.DataFrame([{'claim': f'`{r.id}`', 'where': r.claim.where,
+                               'the paper': r.claim.paper.replace('|', '/'),
+                               'ours': r.ours.replace('|', '/'),
+                               'holds?': f'**{r.status}**' if r.status == claim_checks.FAILS
+                               else r.status} for r in results])
+        lines += [markdown_table(frame), '']
+    return lines
+
+
 def markdown_table(frame: pd.DataFrame, formats: dict[str, str] | None = None) -> str:
     """A DataFrame as a GitHub markdown table (NaN shown as '-'; strings as they are)."""
     formats = formats or {}
@@ -363,8 +394,12 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
            records: Sequence[dict[str, Any]], drawn: Sequence[Figure],
            tables: dict[str, pd.DataFrame], *, sources: Sequence[str] = (),
            parameters_file: str | None = None,
-           incomplete: Mapping[Path, Sequence[Finding]] | None = None) -> str:
-    """The text of report.md (``incomplete``: see :func:`analyse`)."""
+           incomplete: Mapping[Path, Sequence[Finding]] | None = None,
+           compared: Sequence[tuple[dict[str, Any], Sequence[claim_checks.ClaimResult]]] = (),
+           ) -> str:
+    """The text of report.md (``incomplete``: see :func:`analyse`; ``compared``: the claims
+    checked per level of the design factors, :func:`swarm_supervisor.claims.evaluate_levels`).
+    """
     levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
     ends = table.groupby(list(study.KEYS))['t'].max()
     runners = sorted({record.get('runner', 'unknown') for record in records})
@@ -402,6 +437,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     lines += ['', '## What the results show', '',
               '*Computed from the table above; medians over seeds.*', '']
     lines += [f'- {line}' for line in reading(table, tables)]
+    lines += [''] + compared_section(compared)
     lines += ['', '## Figures', '']
     for figure in drawn:
         lines.append(f'### {figure.title}')
