@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     if args.quick:
         config = dataclasses.replace(config, study=study.quick_study(config.study))
     rows = study.run_study(config, args.out, jobs=args.jobs)
-    folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config.study)]
+    folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
     last = study.read_invocations(args.out)[-1]
