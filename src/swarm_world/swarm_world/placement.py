@@ -47,17 +47,26 @@ def place_robots(population: int, arena_side: float, body_radius: float,
     if low >= high:
         raise PlacementError(f'a robot of radius {body_radius} m does not fit a '
                              f'{arena_side} m arena')
-    min_distance_sq = (2 * body_radius + gap) ** 2
+    min_distance = 2 * body_radius + gap
+    min_distance_sq = min_distance ** 2
+    # The placed robots, bucketed in square cells min_distance wide: a spot can only be too
+    # close to robots in its own and the 8 surrounding cells, so a try costs O(1) instead of
+    # O(robots placed) (10,000 robots: 0.1 s instead of minutes). The draws, the distance
+    # arithmetic and hence the poses are exactly those of checking every placed robot.
+    cells: dict[tuple[int, int], list[tuple[float, float]]] = {}
     poses = np.empty((population, 3))
     for k in range(population):
         for _ in range(tries_per_robot):
-            x, y = rng.uniform(low, high, size=2)
-            placed = poses[:k]
-            if not np.any((placed[:, 0] - x) ** 2 + (placed[:, 1] - y) ** 2 < min_distance_sq):
+            x, y = (float(v) for v in rng.uniform(low, high, size=2))
+            col, row = math.floor(x / min_distance), math.floor(y / min_distance)
+            if not any((px - x) ** 2 + (py - y) ** 2 < min_distance_sq
+                       for c in (col - 1, col, col + 1) for r in (row - 1, row, row + 1)
+                       for px, py in cells.get((c, r), ())):
                 break
         else:
             raise PlacementError(f'placing population {population} in a {arena_side} m arena '
                                  f'did not converge: robot {k} found no free spot in '
                                  f'{tries_per_robot} tries')
+        cells.setdefault((col, row), []).append((x, y))
         poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
     return poses
