@@ -119,7 +119,7 @@ def test_cli_run_writes_the_outputs(tmp_path):
 @pytest.mark.parametrize('args, message', [
     (['--population', '-3'], 'episode.population = -3 is out of range'),
     (['--population', '0', '--speed', '-1'], 'out of range: allowed [0, 100]'),
-    (['--population', '2000'], 'episode.population = 2000 is out of range'),
+    (['--population', '200000'], 'episode.population = 200000 is out of range'),
     (['--duration', 'long'], "invalid float value: 'long'"),
 ])
 def test_cli_bad_arguments_exit_2_with_a_message(tmp_path, args, message):
