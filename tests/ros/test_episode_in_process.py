@@ -55,3 +55,43 @@ def test_two_episodes_match_the_embedded_runner(executor, spin_until, tmp_path):
     # Episode 0 cleaned part of the cue (eq. 3 ran through /cleaner and the world).
     assert not np.array_equal(np.load(tmp_path / 'episode_0' / FINAL_FILE)['cue'],
                               world.world.initial_cue)
+
+
+def test_non_default_model_parameters_match_the_embedded_runner(executor, spin_until,
+                                                                tmp_path):
+    """The sweepable decisions reach every node: a lockstep episode with several of them off
+    their defaults equals the embedded runner with the same parameters."""
+    model = {'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
+             'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
+             'world.cleaning': 'literal'}
+    population, duration, seed = 12, 6.0, 5
+    overrides = [Parameter(key, value=value) for key, value in model.items()]
+    overrides += [Parameter('episode.population', value=population),
+                  Parameter('episode.duration', value=duration),
+                  Parameter('episode.seed', value=seed),
+                  Parameter('output_dir', value=str(tmp_path))]
+    context = executor.context
+    world = WorldNode(context=context, parameter_overrides=overrides)
+    controllers = [ControllerNode(i, context=context, parameter_overrides=overrides)
+                   for i in range(population)]
+    supervisor = Supervisor(context=context, parameter_overrides=[
+        *overrides, Parameter('episodes', value=1)])
+    for node in (world, *controllers, supervisor):
+        executor.add_node(node)
+    supervisor.run()
+    spin_until(lambda: world.finished.done() and all(c.finished.done() for c in controllers),
+               what='every node told to shut down')
+
+    sections: dict[str, dict] = {'episode': {'population': population, 'duration': duration,
+                                             'seed': seed}}
+    for key, value in model.items():
+        section, _, name = key.partition('.')
+        sections.setdefault(section, {})[name] = value
+    embedded = run_episode(SwarmConfig().replace(**sections))
+    final = np.load(tmp_path / 'episode_0' / FINAL_FILE)
+    assert int(final['steps']) == embedded.steps and final['misses'].sum() == 0
+    assert np.array_equal(final['poses'], embedded.final_poses)
+    assert np.array_equal(final['cue'], embedded.final_cue)
+    # The parameters took effect: the default model runs differently.
+    default = run_episode(SwarmConfig().replace(episode=sections['episode']))
+    assert not np.array_equal(default.final_poses, embedded.final_poses)

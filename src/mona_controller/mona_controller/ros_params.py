@@ -75,8 +75,12 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
         ParameterError: an out-of-range, mistyped or unknown value, naming the parameter and
             its allowed range.
     """
-    values = {}
+    values, known = {}, set()
     for name, default, spec in flat_fields(cls, prefix):
+        if spec.keyed:
+            values[name[len(prefix):]] = _declare_keyed(node, name)
+            known.update(f'{name}.{key}' for key in values[name[len(prefix):]])
+            continue
         ros_default = list(default) if isinstance(default, tuple) else default
         try:
             param = node.declare_parameter(name, ros_default, descriptor(name, default, spec))
@@ -87,9 +91,23 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
             raise ParameterError(f'{name} = {value} is out of range: allowed '
                                  f'{spec.describe_range()} ({spec.doc})') from None
         values[name[len(prefix):]] = _plain(param.value)
+        known.add(name)
     check_unknown(node, [prefix] if prefix else sorted({n.split('.')[0] + '.' for n in values}),
-                  {prefix + n for n in values})
+                  known)
     return from_mapping(cls, unflatten(values), prefix)
+
+
+def _declare_keyed(node: Node, name: str) -> dict[str, Any]:
+    """A keyed field (``study.factors``) as ROS parameters: a ROS parameter cannot hold a
+    mapping, so each entry the node was given (``study.factors.mona.ir_range``) becomes a
+    read-only parameter of its own; the mapping is built back from them."""
+    overrides = getattr(node, '_parameter_overrides', {})  # rclpy keeps them only privately
+    mapping = {}
+    for full in sorted(o for o in overrides if o.startswith(name + '.')):
+        param = node.declare_parameter(full, descriptor=ParameterDescriptor(
+            name=full, read_only=True, dynamic_typing=True))
+        mapping[full[len(name) + 1:]] = _plain(param.value)
+    return mapping
 
 
 def check_unknown(node: Node, prefixes: Iterable[str], known: set[str]) -> None:
