@@ -1,66 +1,111 @@
-"""Benchmark: real-time factor of the embedded runner, and where a step's time goes.
+"""Benchmark: real-time factor of the embedded runner from 50 to 10,000 Monas, and where a
+step's time goes.
 
-Runs one episode per population with the shipped parameters and prints simulated seconds per
-wall second, then times each part of the step (sense: ground + IR, controller, physics +
-cleaning, metrics) on an N = 50 swarm. A benchmark, not a test: the numbers depend on the
-machine. Target (issue 2): at least 250x real time for N = 50 on one core.
+Every population runs in an arena scaled to the paper's density: the shipped 2.85 m arena
+holds the paper's largest swarm, N = 50, and N robots get a square arena of side
+2.85 * sqrt(N / 50) m, with the cue disc's diameter scaled by the same factor (N = 10,000:
+40.3 m, a 4,030 x 4,030 cue raster). For each N it runs one episode with the embedded runner
+(``run_episode``: set-up, placement, every step and every metrics sample, as ``mona-swarm
+run`` does, outputs excepted) and prints simulated seconds per wall second; then the same
+episode again with ``Episode(profile=True)`` for the split of a step (ground sensors, IR,
+controller, physics + cleaning, metrics samples). A benchmark, not a test: the numbers depend
+on the machine and its load. Targets (issue 13): N = 10,000 at 1x real time or better on one
+core, N = 1,000 at 20x, N = 50 as fast as before (issue 2: at least 250x).
 
-    .venv/bin/python bench/bench_embedded.py [--duration 400] [--populations 10 30 50]
+    .venv/bin/python bench/bench_embedded.py [--populations 50 500 2000 10000] [--duration 400]
+
+Large swarms run shorter episodes (``--duration`` * 500 / N, at least ``--min-duration``),
+so the whole benchmark takes about two minutes here.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 
-from swarm_supervisor.config import load_config
-from swarm_supervisor.episode import Episode
+from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.episode import PARTS, Episode
 from swarm_supervisor.runner import run_episode
 
+#: The paper's largest swarm, which the shipped arena holds: the density every N runs at.
+REFERENCE_POPULATION = 50
+#: Real-time targets (issue 13): the population and the factor it must reach.
+TARGETS = {50: 250.0, 1000: 20.0, 10000: 1.0}
 
-def split(config, steps: int) -> dict[str, float]:
-    """Microseconds per step spent in each part of the step, for one episode's first steps."""
+
+def at_paper_density(base: SwarmConfig, population: int, duration: float,
+                     seed: int) -> SwarmConfig:
+    """``base`` with ``population`` robots in an arena scaled to hold them at the density of
+    :data:`REFERENCE_POPULATION` robots in ``base``'s arena (cue disc scaled alike)."""
+    scale = math.sqrt(population / REFERENCE_POPULATION)
+    return base.replace(
+        episode={'population': population, 'duration': duration, 'seed': seed},
+        world={'arena_side': base.world.arena_side * scale,
+               'cue_diameter': base.world.cue_diameter * scale})
+
+
+def split(config: SwarmConfig) -> tuple[dict[str, float], float]:
+    """Microseconds per step spent in each part of the step over one whole episode, and the
+    set-up (world, controllers, placement) in seconds."""
+    started = time.perf_counter()
     episode = Episode(config, profile=True)
-    for _ in range(steps):
-        episode.step()
-    spent = dict(episode.profile)
+    setup = time.perf_counter() - started
+    sampling = 0.0
     clock = time.perf_counter
     t0 = clock()
-    for _ in range(100):
-        episode.metrics()
-    per_sample = (clock() - t0) / 100
-    spent['metrics (per step share)'] = per_sample * steps * config.world.step_period
-    return {key: value / steps * 1e6 for key, value in spent.items()}
+    episode.metrics()
+    sampling += clock() - t0
+    while not episode.done:
+        if episode.step().sampled:
+            t0 = clock()
+            episode.metrics()
+            sampling += clock() - t0
+    spent = dict(episode.profile)
+    spent['metrics samples'] = sampling
+    return {key: value / episode.steps_done * 1e6 for key, value in spent.items()}, setup
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--duration', type=float, default=400.0, help='sim seconds per run')
-    parser.add_argument('--populations', type=int, nargs='+', default=[10, 30, 50])
+    parser.add_argument('--populations', type=int, nargs='+', default=[50, 500, 2000, 10000])
+    parser.add_argument('--duration', type=float, default=400.0,
+                        help='sim seconds per episode for N <= 500')
+    parser.add_argument('--min-duration', type=float, default=60.0,
+                        help='the shortest episode of a large swarm (sim seconds)')
     parser.add_argument('--seed', type=int, default=1)
+    parser.add_argument('--no-split', action='store_true', help='skip the profiled runs')
     args = parser.parse_args()
     base = load_config()
-    run_episode(base.replace(episode={'population': 2, 'duration': 1.0}))  # compile kernels
-    print(f'embedded runner, {args.duration:g} s episodes, seed {args.seed}')
-    factors = {}
+    run_episode(base.replace(episode={'population': 300, 'duration': 1.0}))  # compile kernels
+    print(f'embedded runner at the density of N = {REFERENCE_POPULATION} in the '
+          f'{base.world.arena_side:g} m arena, seed {args.seed}, one core')
+    print(f'{"N":>6} {"arena":>7} {"sim s":>6} {"wall s":>7} {"us/step":>8} {"x real time":>11}'
+          f'  target')
+    configs = {}
     for population in args.populations:
-        config = base.replace(episode={'population': population, 'duration': args.duration,
-                                       'seed': args.seed})
+        duration = max(args.duration * min(1.0, 500 / max(population, 1)), args.min_duration)
+        config = at_paper_density(base, population, min(duration, args.duration), args.seed)
+        configs[population] = config
         result = run_episode(config)
-        factors[population] = result.real_time_factor
-        print(f'  N = {population:3d}: {result.real_time_factor:7.1f}x real time '
-              f'({result.wall_time / result.steps * 1e6:6.1f} us per step, '
-              f'{result.wall_time:6.2f} s wall)')
-    largest = max(args.populations)
-    print(f'  4000 s episode at N = {largest}: about {4000 / factors[largest]:.1f} s wall; '
-          f'target 250x -> {factors[largest] / 250:.2f} of target')
-    config = base.replace(episode={'population': largest, 'seed': args.seed})
-    parts = split(config, steps=6000)
-    total = sum(parts.values())
-    print(f'where a step goes at N = {largest} (us per step, instrumented):')
-    for name, value in parts.items():
-        print(f'  {name:26s} {value:7.1f}  ({value / total:5.1%})')
-    print(f'  {"total":26s} {total:7.1f}')
+        target = TARGETS.get(population)
+        verdict = (f'{target:g}x: {"met" if result.real_time_factor >= target else "MISSED"}'
+                   if target else '')
+        print(f'{population:6d} {config.world.arena_side:6.1f}m {config.episode.duration:6g} '
+              f'{result.wall_time:7.2f} {result.wall_time / result.steps * 1e6:8.1f} '
+              f'{result.real_time_factor:10.1f}x  {verdict}', flush=True)
+    if args.no_split:
+        return
+    print('where a step goes (us per step, profiled run of the same episode; set-up apart):')
+    names = (*PARTS, 'metrics samples')
+    print(f'{"N":>6} ' + ' '.join(f'{name:>16}' for name in names) + f' {"total":>9}'
+          f' {"set-up s":>9}')
+    for population, config in configs.items():
+        parts, setup = split(config)
+        total = sum(parts.values())
+        print(f'{population:6d} ' + ' '.join(
+            f'{parts[name]:9.1f} ({parts[name] / total:3.0%})' for name in names)
+            + f' {total:9.1f} {setup:9.2f}', flush=True)
 
 
 if __name__ == '__main__':
