@@ -35,6 +35,9 @@ FIG3_POPULATION = 30
 FIG3_TIMES = (0.0, 1000.0, 4000.0)
 PAPER_DURATION = 4000.0
 DPI = 130
+#: The label of the variant of a one-at-a-time design that keeps every factor at the
+#: parameter file's value.
+BASE_LABEL = 'as the parameter file'
 
 
 class FigureSkipped(Exception):
@@ -167,8 +170,7 @@ def variants(table: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     out = []
     for (values, rows), diff in zip(groups, differing):
         shown = diff if one_at_a_time else range(len(factors))
-        label = ', '.join(f'{factors[k]} = {values[k]}' for k in shown) or \
-            'as the parameter file'
+        label = ', '.join(f'{factors[k]} = {values[k]}' for k in shown) or BASE_LABEL
         out.append((label, rows))
     return out
 
