@@ -175,8 +175,12 @@ class Recorder:
         rows += self._open(setup, document, data)
         return Announced(setup, closed, rows)
 
+    def episode_folder(self, episode: int) -> Path:
+        """The folder that receives episode ``episode``'s bag (a subclass may choose another)."""
+        return self.output_dir / f'episode_{episode}'
+
     def _open(self, setup: EpisodeSetup, document: dict, data: bytes) -> list[Row]:
-        folder = self.output_dir / f'episode_{setup.episode}'
+        folder = self.episode_folder(setup.episode)
         folder.mkdir(parents=True, exist_ok=True)
         path, n = folder / 'bag', 1
         while path.exists():

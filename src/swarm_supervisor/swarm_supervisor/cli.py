@@ -1,4 +1,4 @@
-"""The ``mona-swarm`` command: run an episode, run the study, replay and analyse bags.
+"""The ``mona-swarm`` command: run an episode, run the study, replay and analyse bags, videos.
 
 Each subcommand lives in its own module exposing ``register(subparsers)``, which adds its
 parser and sets ``handler``; a handler returns the exit status. Bad arguments and bad
@@ -20,6 +20,7 @@ COMMAND_MODULES = {
     'swarm_supervisor.run_command': ('run',),
     'swarm_supervisor.study_command': ('study',),
     'swarm_supervisor.bag_commands': ('analyze', 'replay', 'recover'),
+    'swarm_supervisor.animate_command': ('animate',),
 }
 
 

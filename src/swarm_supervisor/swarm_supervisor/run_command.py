@@ -1,4 +1,9 @@
-"""``mona-swarm run``: one episode with the embedded runner, written to a folder."""
+"""``mona-swarm run``: one episode with the embedded runner, written to a folder.
+
+With ``--bag`` the folder also gets the bag the metrics node would have recorded
+(:mod:`swarm_supervisor.record`), so ``analyze``, ``replay``, ``animate`` and Foxglove take
+embedded episodes like the node system's.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +16,8 @@ from tqdm import tqdm
 from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import load_config
 from swarm_supervisor.outputs import write_episode
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.record import BagRecorder, RecordError
+from swarm_supervisor.runner import EpisodeObserver, run_episode
 
 
 def register(subparsers) -> None:
@@ -19,7 +25,8 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         'run', help='run one episode with the embedded runner',
         description='Run one episode in one process and write metrics.csv, episode.json, '
-                    'snapshots.npz and a final cue-map PNG into --out.')
+                    'snapshots.npz and a final cue-map PNG into --out; with --bag also its '
+                    'rosbag2/MCAP record (--out/bag), as the metrics node writes it.')
     parser.add_argument('--population', type=int, help='number of robots N (default: config)')
     parser.add_argument('--speed', type=bounded(float, 0, 100, 'cm/s'), metavar='CM_PER_S',
                         help='forward speed in cm/s, e.g. 8 or 4 (default: config)')
@@ -30,6 +37,9 @@ def register(subparsers) -> None:
                         help='output folder (created)')
     parser.add_argument('--config', type=Path, metavar='YAML',
                         help='ROS 2 parameter file (default: ros_ws/config/mona_swarm.yaml)')
+    parser.add_argument('--bag', action='store_true',
+                        help='also record the episode into DIR/bag (rosbag2, MCAP), the same '
+                             "record the node system's metrics node writes (docs/bags.md)")
     parser.set_defaults(handler=run)
 
 
@@ -43,15 +53,32 @@ def run(args: argparse.Namespace) -> int:
     controller = {} if args.speed is None else {'speed': args.speed / 100}
     config = config.replace(episode=episode, controller=controller)
     duration = config.episode.duration
+    observers: list[EpisodeObserver] = []
+    recorder = None
+    if args.bag:
+        try:
+            recorder = BagRecorder(args.out)
+        except FileExistsError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+        observers.append(recorder)
     with tqdm(total=duration, unit='sim s', desc=f'N={config.episode.population}',
               disable=None, file=sys.stderr, bar_format='{l_bar}{bar}| {n:.0f}/{total:.0f} '
               'sim s [{elapsed}<{remaining}]') as bar:
         result = run_episode(config, snapshot_times=config.study.snapshot_times + (duration,),
-                             progress=lambda t: bar.update(t - bar.n))
-    out = write_episode(result, args.out)
+                             progress=lambda t: bar.update(t - bar.n), observers=observers)
+    extra = {}
+    if recorder is not None:
+        try:
+            extra['bag'] = str(recorder.check(result).path)
+        except RecordError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 1
+    out = write_episode(result, args.out, extra=extra)
     last = result.metrics[-1]
     print(f'{out}: N={config.episode.population} v={config.controller.speed * 100:g} cm/s '
           f'seed={config.episode.seed}: mean cue {last["mean_cue"]:.2f} '
           f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s; '
-          f'{result.real_time_factor:.0f}x real time')
+          f'{result.real_time_factor:.0f}x real time'
+          + (f'; bag {extra["bag"]}' if extra else ''))
     return 0

@@ -6,11 +6,25 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import numpy as np
 
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.episode import Episode
+from swarm_supervisor.episode import Episode, Step
+
+
+class EpisodeObserver(Protocol):
+    """Something that watches an episode as it runs (a bag recorder, the live view)."""
+
+    def start(self, episode: Episode) -> None:
+        """The episode is placed, nothing has stepped yet."""
+
+    def step(self, episode: Episode, step: Step) -> None:
+        """One step is done (``episode`` shows the state after it)."""
+
+    def finish(self, episode: Episode) -> None:
+        """The episode ran its duration."""
 
 
 @dataclasses.dataclass
@@ -34,13 +48,15 @@ class EpisodeResult:
 
 
 def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
-                progress: Callable[[float], None] | None = None) -> EpisodeResult:
+                progress: Callable[[float], None] | None = None,
+                observers: Sequence[EpisodeObserver] = ()) -> EpisodeResult:
     """Run one episode of ``config.episode`` and collect its metrics.
 
     Args:
         snapshot_times: sim times (s) at which to keep a copy of the cue map and the poses;
             each is taken at the first metrics sample at or after it.
         progress: called with the sim time after each metrics sample.
+        observers: told of the start, of every step and of the end (in this order).
     """
     started = time.perf_counter()
     episode = Episode(config)
@@ -58,9 +74,16 @@ def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
             progress(t)
 
     record()
+    for observer in observers:
+        observer.start(episode)
     while not episode.done:
-        if episode.step().sampled:
+        step = episode.step()
+        if step.sampled:
             record()
+        for observer in observers:
+            observer.step(episode, step)
+    for observer in observers:
+        observer.finish(episode)
     return EpisodeResult(
         config=config, metrics=rows, initial_poses=episode.initial_poses,
         final_poses=world.poses.copy(), final_cue=world.cue.copy(), snapshots=snapshots,

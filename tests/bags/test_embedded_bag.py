@@ -1,0 +1,149 @@
+"""One record format: the embedded runner's bag (``mona-swarm run --bag``) against the bag the
+metrics node records of a lockstep run of scripts/swarm.sh with the same seed.
+
+Same topics, types, offered QoS and custom_data; identical poses, cleaning events and metrics,
+decoded once with rosbags and once with an independent decoder (mcap + mcap-ros2-support).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.rosbag2 import Reader
+
+from mona_controller import qos
+from swarm_metrics.bag_reader import read_custom_data, read_episode_bag
+from swarm_metrics.bag_writer import TYPESTORE
+from swarm_metrics.metrics_node import METRICS_QOS, MetricsNodeParams, bag_qos
+from swarm_supervisor.config import load_config
+from swarm_supervisor.record import ROBOT_STATES, TOPICS, BagOptions, record_episode
+
+sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
+from swarmrun import CONFIG, SwarmRun  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+POPULATION, DURATION, SEED = 8, 16.0, 1
+#: What the comparison covers: everything but the world's status documents (the embedded
+#: one says mode "embedded") and the embedded-only robot states.
+COMPARED = ('/world/poses', '/world/cleaning', '/world/cue_map', '/episode',
+            *(f'/metrics/{name}' for name in ('mean_cue', 'mean_cue_fraction',
+                                              'ratio_near_source', 'coherency')))
+
+
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(the lockstep run's bag, the embedded run's bag) of the same episode."""
+    run = SwarmRun(tmp_path_factory.mktemp('lockstep') / 'run',
+                   ['--population', str(POPULATION), '--duration', str(DURATION),
+                    '--seed', str(SEED), '--mode', 'lockstep'])
+    try:
+        status = run.wait()
+    finally:
+        run.stop()
+    assert status == 0, run.stderr
+    config = load_config(CONFIG).replace(
+        episode={'population': POPULATION, 'duration': DURATION, 'seed': SEED})
+    _, closed = record_episode(config, tmp_path_factory.mktemp('embedded'))
+    return run.out / 'episode_0' / 'bag', closed.path
+
+
+def mcap_messages(bag: Path) -> dict[str, list[tuple[int, object]]]:
+    """topic -> [(log time from the episode start, decoded message)], by mcap-ros2-support."""
+    out: dict[str, list[tuple[int, object]]] = {}
+    with open(next(bag.glob('*.mcap')), 'rb') as handle:
+        reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+        for _, channel, message, decoded in reader.iter_decoded_messages():
+            out.setdefault(channel.topic, []).append((message.log_time, decoded))
+    start = json.loads(out['/episode'][0][1].data)['start_ns']
+    return {topic: [(t - start, m) for t, m in items] for topic, items in out.items()}
+
+
+def plain(topic: str, msg) -> object:
+    """The content of a decoded message (either decoder) as plain Python values."""
+    if topic in ('/world/poses', '/world/cleaning'):
+        return ((msg.header.stamp.sec, msg.header.stamp.nanosec),
+                [(p.position.x, p.position.y, p.orientation.z, p.orientation.w)
+                 for p in msg.poses])
+    if topic == '/world/cue_map':
+        return ((msg.header.stamp.sec, msg.header.stamp.nanosec), msg.height, msg.width,
+                msg.encoding, bytes(msg.data))
+    if topic == '/episode':
+        document = json.loads(msg.data)
+        return {key: value for key, value in document.items() if key != 'start_ns'}
+    return msg.data  # Float64
+
+
+def test_the_embedded_bag_has_the_metrics_node_topics_types_and_qos(bags):
+    node_bag, embedded_bag = bags
+    expected = {qos.EPISODE: qos.EPISODE_QOS, qos.STATUS: qos.STATUS_QOS,
+                qos.POSES: qos.POSES_QOS, qos.CLEANING: qos.CLEANING_QOS,
+                qos.CUE_MAP: qos.MAP_QOS, qos.CLOCK: qos.CLOCK_QOS,
+                **{topic: METRICS_QOS for topic in COMPARED if topic.startswith('/metrics/')}}
+    assert {topic: TOPICS[topic][1] for topic in expected} == \
+        {topic: bag_qos(profile) for topic, profile in expected.items()}
+    assert BagOptions().cue_map_period == MetricsNodeParams().cue_map_period
+    assert BagOptions().clock_period == MetricsNodeParams().clock_period
+
+    def connections(bag: Path) -> tuple[dict, dict]:
+        with Reader(bag) as reader:
+            return ({c.topic: (c.msgtype, c.ext.offered_qos_profiles)
+                     for c in reader.connections}, read_custom_data(bag))
+
+    node_topics, node_custom = connections(node_bag)
+    embedded_topics, embedded_custom = connections(embedded_bag)
+    assert set(embedded_topics) == set(node_topics) | {ROBOT_STATES}
+    assert {t: embedded_topics[t] for t in node_topics} == node_topics
+    assert set(embedded_custom) == set(node_custom)
+    for key in ('mona_swarm.seed', 'mona_swarm.population', 'mona_swarm.duration',
+                'mona_swarm.parameters'):
+        assert json.loads(embedded_custom[key]) == json.loads(node_custom[key]), key
+
+
+def test_both_runners_record_identical_poses_cleaning_and_metrics_mcap_decoder(bags):
+    node, embedded = (mcap_messages(bag) for bag in bags)
+    for topic in COMPARED:
+        assert [(t, plain(topic, m)) for t, m in embedded[topic]] == \
+            [(t, plain(topic, m)) for t, m in node[topic]], topic
+    # Not two idle worlds: the robots moved and cleaned.
+    assert len(node['/world/cleaning']) > 0
+    assert len(node['/world/poses']) == int(DURATION)
+    states = [np.frombuffer(bytes(m.data), np.uint8) for _, m in embedded[ROBOT_STATES]]
+    assert len(states) == int(DURATION) + 1 and all(len(s) == POPULATION for s in states)
+    assert {int(s) for row in states for s in row} >= {0, 2}  # some followed, some waited
+
+
+def rosbags_messages(bag: Path) -> dict[str, list[tuple[int, object]]]:
+    """As :func:`mcap_messages`, read and decoded by rosbags."""
+    out: dict[str, list[tuple[int, object]]] = {}
+    with Reader(bag) as reader:
+        for connection, log_ns, raw in reader.messages():
+            out.setdefault(connection.topic, []).append(
+                (log_ns, TYPESTORE.deserialize_cdr(raw, connection.msgtype)))
+    start = json.loads(out['/episode'][0][1].data)['start_ns']
+    return {topic: [(t - start, m) for t, m in items] for topic, items in out.items()}
+
+
+def test_both_runners_record_identical_poses_cleaning_and_metrics_rosbags(bags):
+    node, embedded = (rosbags_messages(bag) for bag in bags)
+    for topic in COMPARED:
+        assert [(t, plain(topic, m)) for t, m in embedded[topic]] == \
+            [(t, plain(topic, m)) for t, m in node[topic]], topic
+    # The project's own reader agrees (what analyze and replay use).
+    np.testing.assert_array_equal(read_episode_bag(bags[0]).metric('coherency')[1],
+                                  read_episode_bag(bags[1]).metric('coherency')[1])
+
+
+def test_analyze_takes_the_embedded_bag(bags, tmp_path):
+    result = subprocess.run([sys.executable, '-m', 'swarm_supervisor.cli', 'analyze',
+                             str(bags[1]), '--out', str(tmp_path / 'analysed')],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert 'online metrics agree to 0' in result.stdout
