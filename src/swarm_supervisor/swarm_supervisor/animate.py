@@ -344,7 +344,7 @@ def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: f
         out: ``.mp4`` (H.264) or ``.gif``.
         speedup: sim seconds per video second.
         fps: frames per video second.
-        width: frame width in pixels (default 1024 for MP4, 480 for GIF).
+        width: frame width in pixels (default 1024 for MP4, 640 for GIF).
         progress: called with (frames done, frames in all) after each frame.
 
     Returns:
@@ -359,7 +359,7 @@ def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: f
     if kind not in ('.mp4', '.gif'):
         raise AnimateError(f'{out}: the video must end in .mp4 or .gif')
     record = read_record(path)
-    renderer = Renderer(record, width or (1024 if kind == '.mp4' else 480))
+    renderer = Renderer(record, width or (1024 if kind == '.mp4' else 640))
     times = frame_times(record.duration_ns, speedup, fps)
     out.parent.mkdir(parents=True, exist_ok=True)
     partial = out.with_name(out.stem + '.partial' + out.suffix)

@@ -31,7 +31,7 @@ def register(subparsers) -> None:
     parser.add_argument('--fps', type=bounded(float, 1, 120), default=25.0, metavar='F',
                         help='frames per second (default 25)')
     parser.add_argument('--width', type=bounded(int, 160, 3840), metavar='PIXELS',
-                        help='frame width (default 1024 for MP4, 480 for GIF); height 9/16')
+                        help='frame width (default 1024 for MP4, 640 for GIF); height 9/16')
     parser.set_defaults(handler=run)
 
 
