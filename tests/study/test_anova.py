@@ -173,3 +173,12 @@ def test_compare_variants_and_unknown_variant():
             .loc['population', 'F'])
     with pytest.raises(ValueError, match='variant must be one of levels'):
         anova(table, 'mean_cue', variant='every')
+
+
+def test_report_variant_table_covers_both_responses_and_every_variant():
+    from swarm_supervisor.report import variant_table
+    table = synthetic_table(23, population_effect=3.0, speed_effect=1.0, time_effect=0.0)
+    frame = variant_table(table)
+    assert list(frame.columns) == ['response', 'factor', *VARIANTS]
+    assert sorted(frame['response'].unique()) == ['coherency', 'mean_cue']
+    assert frame.groupby('response').size().tolist() == [4, 4]

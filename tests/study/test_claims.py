@@ -280,3 +280,11 @@ def test_values_are_medians_over_seeds():
                     at=5, op='<=', value=10)
     assert result.status == HOLDS and math.isclose(
         result.values['5|N = 10 at 4 cm/s'], 10.0)
+
+
+def test_extreme_compares_the_named_cells_the_table_has():
+    params = {'metric': 'mean_cue_fraction', 'at': 'end', 'which': 'max',
+              'cell': {'population': 30, 'speed': 0.04}}
+    assert status(CLEAN, 'extreme', **params).status == FAILS  # N = 10 is worse
+    named = status(CLEAN, 'extreme', populations=[20, 30, 40, 50], **params)
+    assert named.status == HOLDS, named.ours  # N = 20 and 40 are absent: skipped

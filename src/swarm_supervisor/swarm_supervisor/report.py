@@ -84,11 +84,12 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
     for response, name in ANOVA_FILES.items():
         tables[response] = anova_tables.anova(table, response)
         anova_tables.write_anova(tables[response], out / name)
+    variants = variant_table(table)
     compared = claim_checks.evaluate_levels(table, claim_checks.all_claims(claims_files))
     path = out / REPORT_FILE
     path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
                            parameters_file=parameters_file, incomplete=incomplete,
-                           compared=compared))
+                           compared=compared, variants=variants))
     return path
 
 
@@ -149,10 +150,13 @@ def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) 
 # The reading: numbers computed from the table.
 
 def cleaning_summary(table: pd.DataFrame) -> pd.DataFrame:
-    """Per (population, speed): median over seeds of the time to halve the mean cue (NaN when
-    most seeds never did) and of the final fraction of the initial cue left."""
+    """Per (population, speed) and level of each design factor: median over seeds of the time
+    to halve the mean cue (NaN when most seeds never did) and of the final fraction of the
+    initial cue left."""
     rows = []
-    for (n, v), cell in table.groupby(['population', 'speed']):
+    factors = study.design_factors(table)
+    for key, cell in table.groupby(['population', 'speed', *factors]):
+        n, v, levels = key[0], key[1], dict(zip(factors, key[2:]))
         halves, finals = [], []
         for _, episode in cell.groupby('seed'):
             episode = episode.sort_values('t')
@@ -160,7 +164,7 @@ def cleaning_summary(table: pd.DataFrame) -> pd.DataFrame:
             halves.append(below.iloc[0] if len(below) else np.inf)
             finals.append(episode['mean_cue_fraction'].iloc[-1])
         half = float(np.median(halves))
-        rows.append({'population': n, 'speed': v, 'seeds': len(finals),
+        rows.append({'population': n, 'speed': v, **levels, 'seeds': len(finals),
                      't_half_s': half if np.isfinite(half) else np.nan,
                      'final_fraction': float(np.median(finals)),
                      'end_s': float(cell['t'].max())})
@@ -245,7 +249,25 @@ def _anova_claim(name: str, frame: pd.DataFrame) -> str:
 
 
 def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
-    """The short reading of the results, as bullet points computed from the data."""
+    """The short reading of the results, as bullet points computed from the data; with a
+    sweep, the curves are read at each level of the design factors apart (pooling them would
+    mix different models)."""
+    factors = [name for name in study.design_factors(table) if table[name].nunique() > 1]
+    lines = []
+    if factors:
+        for key, subset in table.groupby(factors, sort=True):
+            key = key if isinstance(key, tuple) else (key,)
+            prefix = ', '.join(f'{name} = {value}' for name, value in zip(factors, key))
+            lines += [f'[{prefix}] {line}' for line in curve_reading(subset)]
+    else:
+        lines += curve_reading(table)
+    lines.append(_anova_claim('the mean cue', tables['mean_cue']))
+    lines.append(_anova_claim('coherency', tables['coherency']))
+    return lines
+
+
+def curve_reading(table: pd.DataFrame) -> list[str]:
+    """The reading of the curves of one model (one level of each design factor)."""
     summary = cleaning_summary(table)
     lines = []
     timed = summary.dropna(subset=['t_half_s'])
@@ -278,9 +300,28 @@ def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
                  f'({"settled" if row.settled else "still changing"}, {row.change:+.3f}{unit} '
                  'from the tenth before)' for row in settled.itertuples()]
         lines.append(f'The {label} at {_cm(speed)}: ' + '; '.join(parts) + '.')
-    lines.append(_anova_claim('the mean cue', tables['mean_cue']))
-    lines.append(_anova_claim('coherency', tables['coherency']))
     return lines
+
+
+def variant_table(table: pd.DataFrame) -> pd.DataFrame:
+    """F per factor (rows) under each ANOVA variant (columns), for the mean cue and coherency,
+    with each variant's number of observations."""
+    frames = []
+    for response in ANOVA_FILES:
+        frame = anova_tables.compare_variants(table, response)
+        frame.insert(0, 'response', response)
+        frames.append(frame)
+    return pd.concat(frames, ignore_index=True)
+
+
+def _variant_cells(variants: pd.DataFrame) -> pd.DataFrame:
+    """The variant table as text: F to 4 significant digits, observations as integers."""
+    shown = variants.copy()
+    for column in anova_tables.VARIANTS:
+        shown[column] = [('-' if not np.isfinite(value) else
+                          f'{value:.0f}' if factor == 'observations' else f'{value:.4g}')
+                         for factor, value in zip(shown['factor'], shown[column])]
+    return shown
 
 
 # Rendering.
@@ -396,9 +437,10 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
            parameters_file: str | None = None,
            incomplete: Mapping[Path, Sequence[Finding]] | None = None,
            compared: Sequence[tuple[dict[str, Any], Sequence[claim_checks.ClaimResult]]] = (),
-           ) -> str:
+           variants: pd.DataFrame | None = None) -> str:
     """The text of report.md (``incomplete``: see :func:`analyse`; ``compared``: the claims
-    checked per level of the design factors, :func:`swarm_supervisor.claims.evaluate_levels`).
+    checked per level of the design factors, :func:`swarm_supervisor.claims.evaluate_levels`;
+    ``variants``: :func:`variant_table`).
     """
     levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
     ends = table.groupby(list(study.KEYS))['t'].max()
@@ -448,8 +490,10 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
         if figure.note:
             lines.append(f'*Note: {figure.note}.*')
             lines.append('')
+    extra = study.design_factors(table)
     lines += ['## Tables', '',
-              'ANOVA with time, population and speed as categorical factors (main effects, '
+              'ANOVA with time, population, speed'
+              + ''.join(f', {name}' for name in extra) + ' as categorical factors (main effects, '
               'type-II sums of squares, statsmodels `ols` + `anova_lm`). Time enters as '
               f'{anova_tables.DEFAULT_LEVELS} levels: each episode contributes its value at '
               't = ' + ', '.join(f'{t:g}' for t in anova_tables.time_levels(table)) +
@@ -462,6 +506,13 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
         shown.loc[shown['p'] == 0, 'p'] = '< 1e-300'
         lines += [f'### {label} ([`{name}`]({name}))', '',
                   markdown_table(shown, formats), '']
+    if variants is not None:
+        lines += ['### How time and samples enter: F per ANOVA variant', '',
+                  'The paper does not say how time and the samples entered its ANOVA. F of each '
+                  'factor under each variant (`swarm_supervisor.anova`, `variant=`); the tables '
+                  'above are `levels`. ' + '; '.join(f'`{name}`: {text}' for name, text in
+                                                     anova_tables.VARIANT_TEXT.items()) + '.',
+                  '', markdown_table(_variant_cells(variants)), '']
     summary = cleaning_summary(table)
     summary['speed'] = summary['speed'].map(_cm)
     lines += ['### Cleaning by cell', '',
