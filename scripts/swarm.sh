@@ -4,6 +4,9 @@
 #
 #   scripts/swarm.sh --population 10 --episodes 2 --duration 60 --seed 3 --out results/ros
 #
+# Across machines: --role core on one host, --role controllers --robots 0-24 on others, each
+# with the same --domain and --peers IP,IP (a unicast Fast DDS profile instead of loopback).
+#
 # The work is done by swarm_supervisor.launch (--help lists the options); this finds its Python:
 # the repository's .venv, else the python3 of a sourced colcon workspace. Exit status: 0 if
 # every node succeeded and ended by itself; 1 if a node failed or had to be stopped; 2 for bad

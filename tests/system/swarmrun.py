@@ -36,7 +36,8 @@ def group_alive(pgid: int) -> bool:
 class SwarmRun:
     """One scripts/swarm.sh run: the script's process and its output folder."""
 
-    def __init__(self, out: Path, args: list[str]) -> None:
+    def __init__(self, out: Path, args: list[str], prefix: list[str] | None = None) -> None:
+        """Start the script with ``args``; ``prefix`` goes before it (``ip netns exec NS``)."""
         self.out = out
         self.err_path = out.parent / f'{out.name}.stderr'
         self.seen_shm: set[str] = set()
@@ -44,7 +45,8 @@ class SwarmRun:
                    f'{os.environ.get("PATH", "")}')
         with open(self.err_path, 'wb') as err:
             self.process = subprocess.Popen(
-                [str(SWARM), '--out', str(out), '--timeout', str(RUN_TIMEOUT), *args],
+                [*(prefix or []), str(SWARM), '--out', str(out), '--timeout', str(RUN_TIMEOUT),
+                 *args],
                 stdout=err, stderr=subprocess.STDOUT, env=env, start_new_session=True)
 
     @property

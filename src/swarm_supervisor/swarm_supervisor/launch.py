@@ -8,11 +8,17 @@ overrides, which are checked with the schema before anything starts. The run wai
 supervisor, makes sure every node ends, and gives the verdict node by node on stderr. Exit
 status: 0 success, 1 a node failed or had to be stopped, 2 a bad option or parameter, 124
 ``--timeout``, 130 / 143 SIGINT / SIGTERM. docs/running.md has the details.
+
+Across machines, each host runs a part: ``--role core`` (world, metrics, supervisor) on one,
+``--role controllers --robots 0-24`` on others, all with the same ``--domain`` and a
+``--peers`` list of the hosts' addresses, from which the launcher writes a unicast Fast DDS
+profile (the loopback profile stays the default).
 """
 
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import os
 import shlex
 import shutil
@@ -28,8 +34,9 @@ from mona_controller.schema import ParameterError
 from swarm_supervisor.arguments import bounded
 from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config
 from swarm_supervisor.processes import (PROFILE, REPO, claim_domain, describe, groups_shm,
-                                        python_bin, remove_shm_leftovers, ros_environment,
-                                        start_group, stop_groups, wait_gone)
+                                        local_address, peers_profile, python_bin,
+                                        remove_shm_leftovers, ros_environment, start_group,
+                                        stop_groups, wait_gone)
 
 PROG = 'swarm.sh'
 #: Node kind -> (package, executable).
@@ -45,6 +52,12 @@ BAG_GRACE = 30.0
 QUIET_END = 10.0
 #: Seconds between two looks at the /dev/shm files the nodes map.
 NOTE_SHM_EVERY = 10.0
+#: What each ``--role`` starts: the whole system on one host, or the part for one host.
+ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
+         'core': ('world', 'metrics', 'supervisor'),
+         'controllers': ('controller',)}
+#: The file a ``--peers`` run writes its Fast DDS profile to, in the output folder.
+PEERS_PROFILE = 'fastdds_peers.xml'
 
 
 class UsageError(Exception):
@@ -70,6 +83,31 @@ def _override(text: str) -> str:
     if not (name and sep):
         raise argparse.ArgumentTypeError(f"'{text}': expected NAME:=VALUE")
     return text
+
+
+def parse_robots(spec: str) -> list[int]:
+    """Robot ids from ``'3'``, ``'0-24'`` or ``'0,2,5-7'`` (the controller node's syntax)."""
+    ids: list[int] = []
+    for part in spec.split(','):
+        first, _, last = part.strip().partition('-')
+        if not first.isdigit() or (last and not last.isdigit()) or int(last or first) < int(first):
+            raise argparse.ArgumentTypeError(f"'{spec}': expected ids like 3, 0-24 or 0,2,5-7")
+        ids.extend(range(int(first), int(last or first) + 1))
+    if len(set(ids)) != len(ids):
+        raise argparse.ArgumentTypeError(f"'{spec}': a robot id is repeated")
+    return ids
+
+
+def _peers(text: str) -> list[str]:
+    peers = [part.strip() for part in text.split(',') if part.strip()]
+    for peer in peers:
+        try:
+            ipaddress.IPv4Address(peer)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{peer}': expected an IPv4 address") from None
+    if not peers:
+        raise argparse.ArgumentTypeError('expected IP,IP,...')
+    return peers
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -106,7 +144,35 @@ def build_parser() -> argparse.ArgumentParser:
              'for an episode (default max(60, 3 N) s)')
     add('-p', dest='params', type=_override, action='append', default=[],
         metavar='NAME:=VALUE', help='extra ROS parameter override for every node (repeatable)')
+    add('--role', choices=tuple(ROLES), default='all',
+        help='what this host runs: all (default), core (world, metrics, supervisor) or '
+             'controllers (those of --robots); a split run needs --domain on every host')
+    add('--robots', type=parse_robots, metavar='IDS',
+        help='with --role controllers: the robots whose controllers run here, e.g. 0-24')
+    add('--peers', type=_peers, metavar='IP,IP',
+        help="every host's address (this one's too): discover by unicast over the LAN "
+             'instead of loopback (writes <out>/fastdds_peers.xml)')
+    add('--domain', type=bounded(int, 0, 232), metavar='ID',
+        help='ROS domain id, the same on every host of a split run (default: a free one, '
+             'or SWARM_DOMAIN_ID)')
     return parser
+
+
+def check_roles(options: argparse.Namespace, population: int) -> None:
+    """The role options fit together and the population.
+
+    Raises:
+        UsageError: naming the option.
+    """
+    if options.role == 'controllers':
+        if options.robots is None:
+            raise UsageError('--role controllers needs --robots IDS (e.g. 0-24)')
+        beyond = [robot for robot in options.robots if robot >= population]
+        if beyond:
+            raise UsageError(f'--robots: robot {beyond[0]} is beyond the population of '
+                             f'{population} (ids 0..{population - 1})')
+    elif options.robots is not None:
+        raise UsageError('--robots goes with --role controllers')
 
 
 def run_overrides(options: argparse.Namespace) -> list[str]:
@@ -147,18 +213,25 @@ def check_parameters(config_path: Path, overrides: list[str]) -> SwarmConfig:
     return config
 
 
-def controller_groups(population: int, per_process: int) -> list[str]:
-    """The ``--robots`` of each controller process: '0', '1', ... or '0-9', '10-19', ..."""
+def controller_groups(population: int, per_process: int,
+                      robots: list[int] | None = None) -> list[str]:
+    """The ``--robots`` of each controller process: '0', '1', ... or '0-9', '10-19', ...,
+    for every robot of the population or only ``robots`` (in the given order)."""
+    ids = list(range(population)) if robots is None else list(robots)
     groups = []
-    for first in range(0, population, per_process):
-        last = min(first + per_process, population) - 1
-        groups.append(str(first) if last == first else f'{first}-{last}')
+    for start in range(0, len(ids), per_process):
+        chunk = ids[start:start + per_process]
+        if chunk == list(range(chunk[0], chunk[-1] + 1)):
+            groups.append(str(chunk[0]) if len(chunk) == 1 else f'{chunk[0]}-{chunk[-1]}')
+        else:
+            groups.append(','.join(map(str, chunk)))
     return groups
 
 
 def node_commands(options: argparse.Namespace, population: int, out: Path,
                   executables: dict[str, str]) -> dict[str, list[str]]:
-    """Node name -> command line, in start order: world, metrics, controllers, supervisor."""
+    """Node name -> command line, in start order: world, metrics, controllers, supervisor;
+    only the nodes of ``options.role`` (when given)."""
     ros_args = ['--ros-args', '--params-file', str(options.config)]
     for override in run_overrides(options):
         ros_args += ['-p', override]
@@ -169,13 +242,16 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                   '-p', f'output_dir:={out}', '-p', f'start_timeout:={start_timeout}.0',
                   '-p', 'recorders:=metrics'],
         'metrics': [executables['metrics'], *ros_args, '-p', f'output_dir:={out}']}
-    for robots in controller_groups(population, options.per_process):
+    for robots in controller_groups(population, options.per_process,
+                                    getattr(options, 'robots', None)):
         commands[f'controller_{robots}'] = [executables['controller'], '--robots', robots,
                                             *ros_args]
     commands['supervisor'] = [executables['supervisor'], *ros_args,
                               '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
                               '-p', 'recorders:=metrics']
-    return commands
+    kinds = ROLES[getattr(options, 'role', 'all')]
+    return {name: command for name, command in commands.items()
+            if name.partition('_')[0] in kinds}
 
 
 def find_executable(package: str, name: str) -> str:
@@ -259,16 +335,25 @@ class Run:
     def wait(self) -> str:
         """Wait for the supervisor: 'finished' or 'failed' with it, 'failed' when the world or
         the metrics node ends first, 'timeout', or '' when a signal came. A controller that
-        dies is the world's business (it counts the misses) and fails the run later."""
+        dies is the world's business (it counts the misses) and fails the run later.
+
+        Without a supervisor here (``--role controllers``) the run is over when every node
+        has ended ('finished'): controllers end on the supervisor's shutdown announcement,
+        wherever the supervisor runs.
+        """
         started = noted = time.monotonic()
         clean_end: dict[str, float] = {}
         while not self.stopping:
             time.sleep(0.5)
-            status = self.nodes['supervisor'].poll()
+            if 'supervisor' not in self.nodes and not self.live():
+                return 'finished'
+            status = self.nodes['supervisor'].poll() if 'supervisor' in self.nodes else None
             if status is not None:
                 return 'finished' if status == 0 else 'failed'
             now = time.monotonic()
             for name in ('world', 'metrics'):  # a clean end comes with the supervisor's
+                if name not in self.nodes:
+                    continue
                 status = self.nodes[name].poll()
                 if status is None:
                     continue
@@ -289,7 +374,8 @@ class Run:
         if outcome == 'finished':
             # After the shutdown announcement the nodes end by themselves; give them time to.
             wait_gone(self.live(), SHUTDOWN_GRACE, self.interrupted)
-        elif outcome == 'failed' and self.nodes['world'].poll() is not None \
+        elif outcome == 'failed' and 'world' in self.nodes \
+                and self.nodes['world'].poll() is not None \
                 and self.nodes['metrics'].poll() is None:
             say(f'waiting up to {BAG_GRACE:g} s for the metrics node to notice and close its bag')
             wait_gone([self.nodes['metrics']], BAG_GRACE, self.interrupted)
@@ -345,7 +431,15 @@ def main(argv: list[str] | None = None) -> int:
         options = build_parser().parse_args(argv)
         executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
         config = check_parameters(options.config, run_overrides(options))
-        domain = forced_domain()
+        check_roles(options, config.episode.population)
+        domain = options.domain if options.domain is not None else forced_domain()
+        if options.role != 'all' and domain is None:
+            raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
+                             'host), so that the hosts of the run find each other')
+        address = local_address(options.peers) if options.peers else None
+        if options.peers and address is None:
+            raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
+                             "host; list every host's address, this one's too")
     except UsageError as error:
         say(str(error))
         return 2
@@ -368,14 +462,19 @@ def main(argv: list[str] | None = None) -> int:
             return 2
 
     profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(PROFILE)
+    if options.peers:
+        profile = str(out / PEERS_PROFILE)
+        Path(profile).write_text(peers_profile(address, options.peers))
     env = ros_environment(domain, Path(profile), log_dir=out / 'logs' / 'ros')
     write_ros_env(out / 'ros_env.sh', env)
     run = Run(out, env, domain, (lock.fileno(),) if lock else (), options.timeout)
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, run.catch)
     population = config.episode.population
+    part = '' if options.role == 'all' else f', role {options.role}'
+    network = f', peers {",".join(options.peers)} (here {address})' if options.peers else ''
     say(f'domain {domain}, {population} robots, {options.episodes} episode(s), '
-        f'{options.mode}, output {out}')
+        f'{options.mode}{part}{network}, output {out}')
     outcome = ''
     try:
         for name, command in node_commands(options, population, out, executables).items():

@@ -1,5 +1,6 @@
 """Node processes on one machine: a private ROS domain, one process group per node, the signal
-ladder that stops them, and the Fast DDS files they leave in /dev/shm.
+ladder that stops them, the Fast DDS files they leave in /dev/shm, and the Fast DDS profile of
+a run across hosts.
 
 Used by scripts/swarm.sh (through :mod:`swarm_supervisor.launch`), the tests' harness and the
 benchmarks. No ROS imports: the nodes are executables started as subprocesses.
@@ -106,6 +107,73 @@ def ros_environment(domain: int, profile: Path = PROFILE, log_dir: Path | None =
     if log_dir is not None:
         env['ROS_LOG_DIR'] = str(log_dir)
     return env
+
+
+def local_address(peers: Sequence[str]) -> str | None:
+    """The first of ``peers`` (IPv4 addresses) that belongs to this host, or None.
+
+    An address is this host's if a socket can bind to it: no parsing of interface tables, and
+    it answers for the network namespace the process runs in.
+    """
+    for peer in peers:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            try:
+                probe.bind((peer, 0))
+            except OSError:
+                continue
+            return peer
+    return None
+
+
+def peers_profile(address: str, peers: Sequence[str]) -> str:
+    """A Fast DDS profile for a run across hosts: the loopback profile's design (one UDPv4
+    transport, unicast discovery, no shared memory, no multicast) on this host's LAN
+    ``address``, announcing itself to participant ids 0..119 at every one of ``peers``.
+
+    Every host of the run gets the same peer list and finds its own address in it, so one
+    command line, with only ``--role`` and ``--robots`` changed, serves every host.
+    """
+    peer_locators = ''.join(
+        f'\n          <locator><udpv4><address>{peer}</address></udpv4></locator>'
+        for peer in peers)
+    return f"""<?xml version="1.0" encoding="UTF-8" ?>
+<!--
+  Written by scripts/swarm.sh for a run across hosts, peers {','.join(peers)}; this host
+  is {address}. All traffic on that address; discovery by unicast to participant ids 0..119
+  of the domain at every peer (docs/running.md, "Across machines").
+-->
+<profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <transport_descriptors>
+    <transport_descriptor>
+      <transport_id>lan_udp</transport_id>
+      <type>UDPv4</type>
+      <interfaceWhiteList>
+        <address>{address}</address>
+      </interfaceWhiteList>
+      <maxInitialPeersRange>120</maxInitialPeersRange>
+    </transport_descriptor>
+  </transport_descriptors>
+
+  <participant profile_name="mona_swarm_peers" is_default_profile="true">
+    <rtps>
+      <useBuiltinTransports>false</useBuiltinTransports>
+      <userTransports>
+        <transport_id>lan_udp</transport_id>
+      </userTransports>
+      <builtin>
+        <metatrafficUnicastLocatorList>
+          <locator><udpv4><address>{address}</address></udpv4></locator>
+        </metatrafficUnicastLocatorList>
+        <initialPeersList>{peer_locators}
+        </initialPeersList>
+      </builtin>
+      <defaultUnicastLocatorList>
+        <locator><udpv4><address>{address}</address></udpv4></locator>
+      </defaultUnicastLocatorList>
+    </rtps>
+  </participant>
+</profiles>
+"""
 
 
 def python_bin() -> Path:
