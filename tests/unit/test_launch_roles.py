@@ -25,6 +25,7 @@ def test_each_role_starts_its_part():
     assert list(commands()) == ['world', 'metrics', *(f'controller_{i}' for i in range(5)),
                                 'supervisor']
     assert list(commands('--role', 'core')) == ['world', 'metrics', 'supervisor']
+    assert list(commands('--role', 'supervision')) == ['metrics', 'supervisor']
     assert list(commands('--role', 'controllers', '--robots', '1-3')) == \
         ['controller_1', 'controller_2', 'controller_3']
     hosted = commands('--role', 'controllers', '--robots', '0-24', '--controllers-per-process',

@@ -52,9 +52,11 @@ BAG_GRACE = 30.0
 QUIET_END = 10.0
 #: Seconds between two looks at the /dev/shm files the nodes map.
 NOTE_SHM_EVERY = 10.0
-#: What each ``--role`` starts: the whole system on one host, or the part for one host.
+#: What each ``--role`` starts: the whole system on one host, or the part for one host
+#: ('supervision': the core without the world, for a driver of real Monas that replaces it).
 ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
          'core': ('world', 'metrics', 'supervisor'),
+         'supervision': ('metrics', 'supervisor'),
          'controllers': ('controller',)}
 #: The file a ``--peers`` run writes its Fast DDS profile to, in the output folder.
 PEERS_PROFILE = 'fastdds_peers.xml'
@@ -145,7 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     add('-p', dest='params', type=_override, action='append', default=[],
         metavar='NAME:=VALUE', help='extra ROS parameter override for every node (repeatable)')
     add('--role', choices=tuple(ROLES), default='all',
-        help='what this host runs: all (default), core (world, metrics, supervisor) or '
+        help='what this host runs: all (default), core (world, metrics, supervisor), '
+             'supervision (metrics, supervisor: a real-robot driver replaces the world) or '
              'controllers (those of --robots); a split run needs --domain on every host')
     add('--robots', type=parse_robots, metavar='IDS',
         help='with --role controllers: the robots whose controllers run here, e.g. 0-24')
