@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint bench clean
+.PHONY: venv run test lint bench sensitivity clean
 
 venv: $(VENV)/.installed
 
@@ -26,6 +26,11 @@ test: lint
 
 lint: venv
 	$(VENV)/bin/ruff check .
+
+# The sensitivity design of docs/model.md (180 episodes of 4000 s; resumes a partial run)
+sensitivity: venv
+	$(VENV)/bin/mona-swarm study --config ros_ws/config/designs/sensitivity.yaml \
+		--out results/sensitivity
 
 bench: venv
 	$(PY) bench/bench_embedded.py

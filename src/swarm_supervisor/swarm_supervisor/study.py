@@ -220,8 +220,9 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
 
 
 def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
-              progress: bool | None = None,
-              start_method: str = 'spawn') -> list[dict[str, float]]:
+              progress: bool | None = None, start_method: str = 'spawn',
+              scheduler: str | None = None,
+              scheduler_timeout: float = 30.0) -> list[dict[str, float]]:
     """Run every missing episode of ``config.study`` into ``out_dir`` and tabulate them all.
 
     Episodes already complete in ``out_dir/episodes`` are kept (after checking they were run
@@ -234,6 +235,9 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
         jobs: worker processes (default: the CPUs this process may use).
         progress: show progress bars on stderr (None: only on a terminal).
         start_method: the multiprocessing context ('spawn' or 'fork').
+        scheduler: the address of a Dask distributed scheduler: run the episodes on its
+            workers instead of local processes (:mod:`swarm_supervisor.cluster`).
+        scheduler_timeout: seconds to wait for the scheduler to answer.
 
     Returns:
         The tidy table as flat rows (one dict per episode and sample), columns
@@ -259,14 +263,19 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
     # Longest first (cost grows with N), so the workers run out of work together.
     pending.sort(key=lambda task: -task[0].episode.population * task[0].episode.duration)
-    jobs = max(1, min(jobs or _available_cpus(), len(pending) or 1))
-    ran = _run_pending(pending, jobs, progress, start_method)
+    if scheduler:
+        from swarm_supervisor.cluster import run_on_cluster
+        jobs, ran = 0, run_on_cluster(pending, scheduler, progress, scheduler_timeout)
+    else:
+        jobs = max(1, min(jobs or _available_cpus(), len(pending) or 1))
+        ran = _run_pending(pending, jobs, progress, start_method)
     rows = tidy_table([folders[spec] for spec in specs],
                       factors=study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
     _record_invocation(out / TIMING_FILE, {
         'started': stamp,
         'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
+        'scheduler': scheduler,
         'wall_time_s': round(time.perf_counter() - started, 3),
         'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
         'episode_wall_time_s': {Path(folder).name: round(wall, 3)

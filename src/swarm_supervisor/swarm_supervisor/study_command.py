@@ -37,6 +37,13 @@ def register(subparsers) -> None:
                              'speeds, the first two seeds, 60 s episodes')
     parser.add_argument('--jobs', type=bounded(int, 1), metavar='J',
                         help='worker processes (default: one per CPU)')
+    parser.add_argument('--scheduler', metavar='ADDRESS',
+                        help='run the episodes on the workers of this Dask distributed '
+                             'scheduler (e.g. tcp://10.0.0.1:8786) instead of local processes; '
+                             'see docs/running.md')
+    parser.add_argument('--scheduler-timeout', type=bounded(float, 0.1), default=30.0,
+                        metavar='SECONDS',
+                        help='how long to wait for the scheduler to answer (default: 30)')
     parser.add_argument('--from-episodes', type=Path, nargs='+', metavar='DIR',
                         help='analyse the episode folders (metrics.csv + episode.json) at or '
                              'under these folders; run nothing')
@@ -66,7 +73,11 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     if args.quick:
         config = dataclasses.replace(config, study=study.quick_study(config.study))
-    rows = study.run_study(config, args.out, jobs=args.jobs)
+    if args.scheduler and args.jobs:
+        raise study.StudyError('--jobs and --scheduler exclude each other (a cluster has as '
+                               'many jobs as its workers run)')
+    rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
+                           scheduler_timeout=args.scheduler_timeout)
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
@@ -80,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
 def from_episodes(args: argparse.Namespace, started: float) -> int:
     """``--from-episodes``: check and analyse existing episode folders; run nothing."""
     unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
-                                       ('--jobs', args.jobs)) if value]
+                                       ('--jobs', args.jobs),
+                                       ('--scheduler', args.scheduler)) if value]
     if unused:
         raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
                                '--from-episodes, which runs nothing')

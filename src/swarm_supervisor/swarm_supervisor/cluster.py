@@ -1,0 +1,107 @@
+"""The study's episodes on a Dask distributed cluster (``mona-swarm study --scheduler``).
+
+Each episode is one Dask task. A worker runs it into a temporary folder of its own and sends
+back the folder's files as bytes; the client writes them into the study's folder, episode.json
+last, exactly as a local run does. So the workers need no shared filesystem, only the same
+packages (this project installed in the same Python), and the outputs are the same files a
+local run writes. A worker that dies mid-episode loses only that task: the scheduler runs it
+again on another worker (Dask gives up on a task only after it has killed
+``distributed.scheduler.allowed-failures`` workers, 3 by default).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from swarm_supervisor import outputs
+from swarm_supervisor.study import StudyError, _run_and_write
+
+#: Seconds to wait for the scheduler to answer before giving up (default).
+CONNECT_TIMEOUT = 30.0
+
+
+class ClusterError(StudyError):
+    """The scheduler cannot be reached (the command line exits 2 with this message)."""
+
+
+def episode_files(task: tuple[Any, tuple[float, ...], str]
+                  ) -> tuple[str, float, float, dict[str, bytes]]:
+    """Worker side: run one episode into a temporary folder (with the function a local
+    worker runs) and return its files.
+
+    Returns:
+        (the study's folder for it, wall s, CPU s, file name -> bytes).
+    """
+    config, times, folder = task
+    with tempfile.TemporaryDirectory(prefix='mona-episode-') as scratch:
+        _, wall, cpu = _run_and_write((config, times, scratch))
+        files = {path.name: path.read_bytes() for path in sorted(Path(scratch).iterdir())}
+    return folder, wall, cpu, files
+
+
+def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
+    """Client side: write an episode's files into its folder, episode.json last (atomically),
+    so a folder without it is half-written and is run again, as in a local run."""
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        if name != outputs.EPISODE_FILE:
+            (out / name).write_bytes(data)
+    temporary = out / (outputs.EPISODE_FILE + '.tmp')
+    temporary.write_bytes(files[outputs.EPISODE_FILE])
+    os.replace(temporary, out / outputs.EPISODE_FILE)
+
+
+def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str]], scheduler: str,
+                   progress: bool | None, timeout: float = CONNECT_TIMEOUT
+                   ) -> dict[str, tuple[float, float]]:
+    """Run the tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
+
+    Episodes are written as they finish; Ctrl-C or a failed episode cancels the rest (the
+    finished ones stay, and the next call resumes from them).
+
+    Returns:
+        folder -> (wall seconds, CPU seconds) of each episode, on its worker.
+
+    Raises:
+        ClusterError: the scheduler does not answer within ``timeout`` s.
+    """
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as error:  # pragma: no cover - dask is a requirement
+        raise ClusterError(f'--scheduler needs dask.distributed ({error})') from None
+    if not pending:
+        return {}
+    try:
+        client = Client(scheduler, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError) as error:
+        raise ClusterError(f'cannot reach the Dask scheduler at {scheduler}: {error}') \
+            from None
+    ran: dict[str, tuple[float, float]] = {}
+    futures = []
+    try:
+        # Keys name the episode and its study folder, so two studies never share a task.
+        for task in pending:
+            digest = hashlib.sha1(str(Path(task[2]).resolve()).encode()).hexdigest()[:12]
+            futures.append(client.submit(episode_files, task, pure=False,
+                                         key=f'{Path(task[2]).name}-{digest}'))
+        with tqdm(total=len(pending), desc='episodes', unit='episodes', file=sys.stderr,
+                  disable=None if progress is None else not progress) as bar:
+            for future in as_completed(futures, loop=client.loop):
+                folder, wall, cpu, files = future.result()
+                write_files(folder, files)
+                ran[folder] = wall, cpu
+                bar.update(1)
+                bar.set_postfix_str(Path(folder).name, refresh=False)
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+        client.close()
+    return ran
