@@ -288,3 +288,14 @@ def test_extreme_compares_the_named_cells_the_table_has():
     assert status(CLEAN, 'extreme', **params).status == FAILS  # N = 10 is worse
     named = status(CLEAN, 'extreme', populations=[20, 30, 40, 50], **params)
     assert named.status == HOLDS, named.ours  # N = 20 and 40 are absent: skipped
+
+
+def test_rises_then_settles_accepts_a_peak_that_falls_back():
+    # The paper's swarm gathers at the source, then disperses as the cue vanishes.
+    def peak(n, v, seed, t):
+        return {'ratio_near_source': 0.2 + 0.7 * np.exp(-((t - 20) / 10) ** 2)}
+    result = status(synthetic(peak), 'rises_then_settles', metric='ratio_near_source',
+                    min_change=0.5)
+    assert result.status == HOLDS and 'peak 0.9 at 20 s' in result.ours
+    assert status(synthetic(peak), 'rises_then_settles', metric='ratio_near_source',
+                  min_change=0.8).status == FAILS

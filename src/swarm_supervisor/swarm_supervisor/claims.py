@@ -449,10 +449,11 @@ def check_threshold(table: pd.DataFrame, p: Mapping[str, Any]) -> CheckResult:
 
 
 def check_rises_then_settles(table: pd.DataFrame, p: Mapping[str, Any]) -> CheckResult:
-    """For each cell named, the curve rises (``direction: up``; falls for ``down``) by more
-    than ``min_change`` from its first sample to the mean of its last ``share`` of the
-    episode, and has settled: that mean differs from the mean of the ``share`` before by at
-    most ``tolerance`` times the curve's range (max - min)."""
+    """For each cell named, the curve rises (``direction: up``; falls for ``down``): its peak
+    (trough) lies more than ``min_change`` above (below) its first sample; and it has settled
+    by the end: the mean of its last ``share`` of the episode differs from the mean of the
+    ``share`` before by at most ``tolerance`` times the curve's range (max - min). Where it
+    settles is free: the paper's swarm gathers, then disperses as the cue vanishes."""
     cells = _cells(table, p)
     holds, parts, values = True, [], {}
     for cell in cells:
@@ -465,18 +466,23 @@ def check_rises_then_settles(table: pd.DataFrame, p: Mapping[str, Any]) -> Check
             raise NotApplicable(f'{_label(*cell)} has too few samples to compare the last '
                                 f'{p["share"]:.0%} of the episode with the one before')
         start, final = float(y[0]), float(np.mean(last))
-        change = final - start if p['direction'] == 'up' else start - final
+        extreme = int(np.argmax(y) if p['direction'] == 'up' else np.argmin(y))
+        change = y[extreme] - start if p['direction'] == 'up' else start - y[extreme]
         drift = float(np.mean(last) - np.mean(before))
         span = float(np.max(y) - np.min(y))
         settled = abs(drift) <= p['tolerance'] * span if span > 0 else True
         moved = change > p['min_change']
         holds &= moved and settled
         verb = 'rises' if p['direction'] == 'up' else 'falls'
-        parts.append(f'{_label(*cell)}: {_number_text(start)} -> {_number_text(final)} '
-                     f'({verb if moved else "does not " + verb[:-1]}), '
-                     f'{"settled" if settled else "still changing"} ({drift:+.3g} over the '
-                     f'last {p["share"]:.0%}, range {_number_text(span)})')
-        values[_label(*cell)] = {'start': start, 'end': final, 'drift': drift, 'span': span}
+        parts.append(f'{_label(*cell)}: {_number_text(start)} -> '
+                     f'{"peak" if p["direction"] == "up" else "trough"} '
+                     f'{_number_text(y[extreme])} at {t[extreme]:g} s '
+                     f'({verb if moved else "does not " + verb[:-1]}) -> '
+                     f'{_number_text(final)} over the last {p["share"]:.0%}, '
+                     f'{"settled" if settled else "still changing"} ({drift:+.3g} from the '
+                     f'{p["share"]:.0%} before; range {_number_text(span)})')
+        values[_label(*cell)] = {'start': start, 'extreme': float(y[extreme]), 'end': final,
+                                 'drift': drift, 'span': span}
     return holds, '; '.join(parts), values
 
 
@@ -518,7 +524,9 @@ def _anova(table: pd.DataFrame, p: Mapping[str, Any],
 
 
 def _f_text(result: pd.DataFrame) -> str:
-    return ', '.join(f'{name} F = {row.F:.4g} (p = {row.p:.2g})'
+    # p underflows to 0 for large F: say so rather than print 'p = 0'.
+    return ', '.join(f'{name} F = {row.F:.4g} (p ' + ('< 1e-300)' if row.p == 0 else
+                                                     f'= {row.p:.2g})')
                      for name, row in result.sort_values('F', ascending=False).iterrows()
                      if np.isfinite(row.F))
 
