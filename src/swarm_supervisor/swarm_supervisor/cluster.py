@@ -101,6 +101,9 @@ def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str]], schedu
                 ran[folder] = wall, cpu
                 bar.update(1)
                 bar.set_postfix_str(Path(folder).name, refresh=False)
+                if bar.disable and progress is None:  # a log, not a terminal
+                    print(f'episode {len(ran)}/{len(pending)} done: {Path(folder).name} '
+                          f'({wall:.1f} s)', file=sys.stderr, flush=True)
     finally:
         client.cancel([f for f in futures if not f.done()])
         client.close()

@@ -343,6 +343,9 @@ def _run_pending(pending: list, jobs: int, progress: bool | None,
                     ran[folder] = wall, cpu
                     episodes.update(1)
                     episodes.set_postfix_str(Path(folder).name, refresh=False)
+                    if episodes.disable and progress is None:  # a log, not a terminal
+                        print(f'episode {len(ran)}/{len(pending)} done: {Path(folder).name} '
+                              f'({wall:.1f} s)', file=sys.stderr, flush=True)
                 seconds.update(min(counter.value, total) - seconds.n)
         pool.close()
     except BaseException:  # Ctrl-C or a failed episode: stop every worker now
