@@ -78,6 +78,7 @@ class ClaimResult:
 
     @property
     def id(self) -> str:
+        """The claim's id (results are keyed by it)."""
         return self.claim.id
 
 
