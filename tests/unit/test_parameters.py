@@ -21,7 +21,8 @@ def test_round_trip_through_yaml(tmp_path):
 
 
 @pytest.mark.parametrize('section, values, fragment', [
-    ('episode', {'population': -3}, 'episode.population = -3 is out of range: allowed [0, 100000]'),
+    ('episode', {'population': -3},
+     'episode.population = -3 is out of range: allowed [0, 100000]'),
     ('episode', {'population': 2.5}, 'episode.population = 2.5: expected a whole number'),
     ('controller', {'speed': -0.01}, 'controller.speed = -0.01 is out of range'),
     ('controller', {'alpha': 'two'}, 'controller.alpha'),
