@@ -59,11 +59,13 @@ def test_two_episodes_match_the_embedded_runner(executor, spin_until, tmp_path):
 
 def test_non_default_model_parameters_match_the_embedded_runner(executor, spin_until,
                                                                 tmp_path):
-    """The sweepable decisions reach every node: a lockstep episode with several of them off
-    their defaults equals the embedded runner with the same parameters."""
+    """The sweepable decisions and the noise reach every node: a lockstep episode with
+    several of them off their defaults equals the embedded runner with the same parameters."""
     model = {'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
              'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
-             'world.cleaning': 'literal'}
+             'world.cleaning': 'literal',
+             # and the noise streams, drawn in the world from the announced seed
+             'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05}
     population, duration, seed = 12, 6.0, 5
     overrides = [Parameter(key, value=value) for key, value in model.items()]
     overrides += [Parameter('episode.population', value=population),

@@ -31,6 +31,15 @@ class MonaParams:
     ground_footprint: float = param(0.0, unit='m', low=0.0, high=0.1,
                                     doc='side of the square floor area each ground sensor '
                                         'averages (0: the one cue cell under it)')
+    ground_noise: float = param(0.0, unit='cue units', low=0.0, high=255.0,
+                                doc='standard deviation of the Gaussian noise on each ground '
+                                    'reading, added before rounding to 0..255')
+    ir_miss: float = param(0.0, low=0.0, high=1.0,
+                           doc='probability that an IR beam seeing something reports nothing '
+                               '(a false negative), per beam and step')
+    wheel_noise: float = param(0.0, low=0.0, high=1.0,
+                               doc='relative standard deviation of each wheel speed per step '
+                                   '(slip; 0.1: the wheel runs at 1 +- 0.1 of its command)')
     ir_count: int = param(5, unit='sensors', low=1, high=16,
                           doc='front IR proximity sensors, spread evenly over ir_span')
     ir_span: float = param(2.4434609527920612, unit='rad', low=0.0, high=6.283185307179586,

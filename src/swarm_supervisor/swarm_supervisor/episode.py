@@ -79,7 +79,7 @@ class Episode:
             PlacementError: the population does not fit in the arena.
         """
         self.seed = self.config.episode.seed if seed is None else seed
-        self.world.reset(place_swarm(self.config, self.seed))
+        self.world.reset(place_swarm(self.config, self.seed), self.seed)
         self.controllers.reset(self.seed)
         self.initial_poses = self.world.poses.copy()
         if self.profile is not None:

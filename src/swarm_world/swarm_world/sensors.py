@@ -18,9 +18,13 @@ import numba
 import numpy as np
 
 
+_NO_NOISE = np.zeros((0, 2))
+
+
 @numba.njit(cache=True)
-def _ground_kernel(cue, cell_size, poses, half_separation, out):  # pragma: no cover - jitted
+def _ground_kernel(cue, cell_size, poses, half_separation, noise, out):  # pragma: no cover
     last = cue.shape[0] - 1
+    noisy = noise.shape[0] > 0
     for i in range(poses.shape[0]):
         x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
         # The left wheel is at +y in the body frame (REP 103): offset (-sin, cos) * half.
@@ -30,16 +34,23 @@ def _ground_kernel(cue, cell_size, poses, half_separation, out):  # pragma: no c
             sign = 1.0 if side == 0 else -1.0
             col = min(max(math.floor((x + sign * ox) / cell_size), 0), last)
             row = min(max(math.floor((y + sign * oy) / cell_size), 0), last)
-            out[i, side] = np.uint8(min(max(np.rint(cue[row, col]), 0.0), 255.0))
+            value = cue[row, col] + noise[i, side] if noisy else cue[row, col]
+            out[i, side] = np.uint8(min(max(np.rint(value), 0.0), 255.0))
     return out
 
 
 def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
-                    wheel_separation: float) -> np.ndarray:
-    """The cue cell under the left and right wheels, rounded: [N, 2] uint8 (left, right)."""
+                    wheel_separation: float, noise: np.ndarray | None = None) -> np.ndarray:
+    """The cue cell under the left and right wheels, rounded: [N, 2] uint8 (left, right).
+
+    Args:
+        noise: [N, 2] cue units added to each value before it is rounded and clipped to
+            0..255 (sensor noise; None: none).
+    """
     out = np.empty((len(poses), 2), dtype=np.uint8)
+    noise = _NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     return _ground_kernel(cue, cell_size, np.ascontiguousarray(poses, dtype=np.float64),
-                          wheel_separation / 2, out)
+                          wheel_separation / 2, noise, out)
 
 
 @numba.njit(cache=True)

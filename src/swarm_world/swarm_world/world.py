@@ -13,6 +13,7 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
+from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics
 from swarm_world.sensors import ground_readings, proximity
@@ -47,6 +48,9 @@ class World:
         self.cue = self.initial_cue.copy()
         self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
         self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
+        self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
+                                       wheel=mona.wheel_noise)
+        self.seed = 0  # the episode seed: the noise streams derive from it
         self.physics = self._physics(np.zeros((0, 3)))
         self.time_ns = 0
         self.steps = 0
@@ -68,9 +72,11 @@ class World:
         """Sim time in seconds."""
         return self.time_ns / 1e9
 
-    def reset(self, poses: np.ndarray) -> None:
-        """Start an episode: restore the cue, rebuild the physics with robots at ``poses``."""
+    def reset(self, poses: np.ndarray, seed: int = 0) -> None:
+        """Start an episode: restore the cue, rebuild the physics with robots at ``poses``;
+        the sensor and wheel noise (if any) derive from ``seed``."""
         poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        self.seed = int(seed)
         self.cue = self.initial_cue.copy()
         self._sensed = None
         self.physics = self._physics(poses)
@@ -88,10 +94,20 @@ class World:
         poses = self.poses
         if self._sensed is None:
             self._sensed = cue_field.sensed_field(self.cue, self.footprint)
+        robots = np.arange(len(poses))
+        extra = None
+        if self.noise.ground:
+            extra = self.noise.ground * noise.normals(self.seed, noise.GROUND_STREAM, robots,
+                                                      self.steps, 2)
         ground = ground_readings(self._sensed, self.params.cell_size, poses,
-                                 self.mona.wheel_separation)
+                                 self.mona.wheel_separation, extra)
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
                                      self.mona.ir_range, self.params.arena_side)
+        if self.noise.ir_miss:
+            missed = noise.uniforms(self.seed, noise.IR_STREAM, robots, self.steps,
+                                    ranges.shape[1]) < self.noise.ir_miss
+            ranges[missed] = np.inf
+            is_robot[missed] = False
         return Readings(self.time_ns, ground, ranges, is_robot)
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
@@ -103,6 +119,12 @@ class World:
             cleaner: [N] bool, the cleaning actuators.
         """
         self.cleaning = np.asarray(cleaner, dtype=bool)
+        if self.noise.wheel and self.population:
+            error = self.noise.wheel * noise.normals(self.seed, noise.WHEEL_STREAM,
+                                                     np.arange(self.population), self.steps, 2)
+            linear, angular = noise.noisy_wheels(np.asarray(linear, dtype=np.float64),
+                                                 np.asarray(angular, dtype=np.float64),
+                                                 self.mona.wheel_separation, error)
         self.physics.step(linear, angular, self.params.step_period)
         before = self.time_ns
         self.steps += 1
