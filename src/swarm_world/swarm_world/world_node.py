@@ -179,7 +179,7 @@ class WorldNode(Node):
             self.fail(f'episode {self.episode} rejected: {problem}', fatal=False)
             return
         population = announcement.population
-        self.world.reset(np.array(announcement.poses))
+        self.world.reset(np.array(announcement.poses), announcement.seed)
         self.start_ns = self.time_ns = announcement.start_ns
         self.total_steps = steps_for(announcement.duration, self.params.step_ns)
         self.lockstep = Lockstep(population, self.start_ns, self.options.absent_after,
