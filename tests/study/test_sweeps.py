@@ -111,10 +111,16 @@ def test_sweep_runs_into_a_table_with_its_factor(swept):
         ['mona.ir_range']
 
 
-def test_sweep_anova_has_the_factor(swept):
+def test_sweep_anova_report_and_claim_matrix_have_the_factor(swept):
     out, _ = swept
     anova = pd.read_csv(out / 'anova_cue.csv')
     assert 'mona.ir_range' in set(anova['factor'])
+    report = (out / 'report.md').read_text()
+    assert '- factor `mona.ir_range`: 0.02, 0.1' in report
+    assert 'differ between episodes' not in report  # a declared factor is no accident
+    matrix = pd.read_csv(out / 'sensitivity.csv')
+    assert list(matrix['variant']) == ['mona.ir_range = 0.02', 'mona.ir_range = 0.1']
+    assert '(sensitivity.md)' in report
 
 
 def test_figures_facet_by_the_factor(swept, tmp_path):

@@ -26,7 +26,7 @@ from swarm_supervisor import anova as anova_tables
 from swarm_supervisor import claims as claim_checks
 from swarm_supervisor import figures
 from swarm_metrics.completeness import Finding
-from swarm_supervisor import __version__, outputs, study
+from swarm_supervisor import __version__, outputs, sensitivity, study
 
 REPORT_FILE = 'report.md'
 ANOVA_FILES = {'mean_cue': 'anova_cue.csv', 'coherency': 'anova_coherency.csv'}
@@ -85,11 +85,13 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
         tables[response] = anova_tables.anova(table, response)
         anova_tables.write_anova(tables[response], out / name)
     variants = variant_table(table)
-    compared = claim_checks.evaluate_levels(table, claim_checks.all_claims(claims_files))
+    claims = claim_checks.all_claims(claims_files)
+    compared = claim_checks.evaluate_levels(table, claims)
+    matrix = sensitivity.write_sensitivity(out, table, claims)
     path = out / REPORT_FILE
     path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
                            parameters_file=parameters_file, incomplete=incomplete,
-                           compared=compared, variants=variants))
+                           compared=compared, variants=variants, matrix=matrix))
     return path
 
 
@@ -437,10 +439,10 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
            parameters_file: str | None = None,
            incomplete: Mapping[Path, Sequence[Finding]] | None = None,
            compared: Sequence[tuple[dict[str, Any], Sequence[claim_checks.ClaimResult]]] = (),
-           variants: pd.DataFrame | None = None) -> str:
+           variants: pd.DataFrame | None = None, matrix: Path | None = None) -> str:
     """The text of report.md (``incomplete``: see :func:`analyse`; ``compared``: the claims
     checked per level of the design factors, :func:`swarm_supervisor.claims.evaluate_levels`;
-    ``variants``: :func:`variant_table`).
+    ``variants``: :func:`variant_table`; ``matrix``: sensitivity.md, if written).
     """
     levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
     ends = table.groupby(list(study.KEYS))['t'].max()
@@ -463,7 +465,11 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                      "folder's episode.json also records its own")
     else:
         lines.append("- every parameter: in each episode folder's episode.json")
-    differ = differing_parameters(records)
+    factors = study.design_factors(table)
+    for factor in factors:
+        lines.append(f'- factor `{factor}`: '
+                     + ', '.join(str(v) for v in sorted(table[factor].unique().tolist())))
+    differ = [name for name in differing_parameters(records) if name not in factors]
     if differ:
         lines.append(f'- **warning**: these parameters differ between episodes: '
                      f'{", ".join(differ)}')
@@ -480,6 +486,9 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
               '*Computed from the table above; medians over seeds.*', '']
     lines += [f'- {line}' for line in reading(table, tables)]
     lines += [''] + compared_section(compared)
+    if matrix is not None:
+        lines += [f'Which verdicts change with which factor level, claim by claim: '
+                  f'[`{matrix.name}`]({matrix.name}) (and `{sensitivity.MATRIX_CSV}`).', '']
     lines += ['', '## Figures', '']
     for figure in drawn:
         lines.append(f'### {figure.title}')

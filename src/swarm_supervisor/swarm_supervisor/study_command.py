@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 
 from swarm_metrics.completeness import describe
-from swarm_supervisor import sensitivity, study
+from swarm_supervisor import study
 from swarm_supervisor.arguments import bounded
 from swarm_supervisor.claims import all_claims
 from swarm_supervisor.config import load_config
@@ -81,7 +81,6 @@ def run(args: argparse.Namespace) -> int:
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
-    write_sensitivity(args, pd.DataFrame(rows))
     last = study.read_invocations(args.out)[-1]
     print(f'{report}: {last["episodes"]} episodes ({last["ran"]} run, {last["kept"]} kept) '
           f'in {time.perf_counter() - started:.1f} s')
@@ -110,17 +109,8 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
         return 1
     report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
                      incomplete=incomplete, claims_files=args.claims)
-    write_sensitivity(args, study.read_table(args.out / study.TABLE_FILE))
     flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''
     print(f'{report}: {len(folders)} episodes analysed{flagged} in '
           f'{time.perf_counter() - started:.1f} s')
     return 0
 
-
-def write_sensitivity(args: argparse.Namespace, table: pd.DataFrame) -> None:
-    """For a design with extra factors: the claims checked on each of its variants, in
-    sensitivity.md and sensitivity.csv (:mod:`swarm_supervisor.sensitivity`)."""
-    checked = all_claims(args.claims or ())
-    path = sensitivity.write_sensitivity(args.out, table, checked)
-    if path is not None:
-        print(f'{path}: the claims on each variant of the design')
