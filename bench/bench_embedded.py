@@ -1,21 +1,22 @@
 """Benchmark: real-time factor of the embedded runner from 50 to 10,000 Monas, and where a
 step's time goes.
 
-Every population runs in an arena scaled to the paper's density: the shipped 2.85 m arena
-holds the paper's largest swarm, N = 50, and N robots get a square arena of side
-2.85 * sqrt(N / 50) m, with the cue disc's diameter scaled by the same factor (N = 10,000:
-40.3 m, a 4,030 x 4,030 cue raster). For each N it runs one episode with the embedded runner
-(``run_episode``: set-up, placement, every step and every metrics sample, as ``mona-swarm
-run`` does, outputs excepted) and prints simulated seconds per wall second; then the same
-episode again with ``Episode(profile=True)`` for the split of a step (ground sensors, IR,
-controller, physics + cleaning, metrics samples). A benchmark, not a test: the numbers depend
-on the machine and its load. Targets (issue 13): N = 10,000 at 1x real time or better on one
-core, N = 1,000 at 20x, N = 50 as fast as before (issue 2: at least 250x).
+Populations 50, 500, 1,000, 2,000 and 10,000 (by default) run in an arena scaled to the
+paper's density: the shipped 2.85 m arena holds the paper's largest swarm, N = 50, and N
+robots get a square arena of side 2.85 * sqrt(N / 50) m, with the cue disc's diameter scaled
+by the same factor (N = 10,000: 40.3 m, a 4,030 x 4,030 cue raster). For each N it runs one
+episode with the embedded runner (``run_episode``: set-up, placement, every step and every
+metrics sample, as ``mona-swarm run`` does, outputs excepted) and prints simulated seconds per
+wall second and per CPU second; then the same episode again with ``Episode(profile=True)`` for
+the split of a step (ground sensors, IR, controller, physics + cleaning, metrics samples).
+A benchmark, not a test: the numbers depend on the machine and its load. Targets (issue 13):
+N = 10,000 at 1x real time or better on one core, N = 1,000 at 20x, N = 50 as fast as before
+(issue 2: at least 250x).
 
-    .venv/bin/python bench/bench_embedded.py [--populations 50 500 2000 10000] [--duration 400]
+    .venv/bin/python bench/bench_embedded.py [--populations 50 1000 10000] [--duration 400]
 
 Large swarms run shorter episodes (``--duration`` * 500 / N, at least ``--min-duration``),
-so the whole benchmark takes about two minutes here.
+so the whole benchmark takes a few minutes here.
 """
 
 from __future__ import annotations
@@ -68,7 +69,8 @@ def split(config: SwarmConfig) -> tuple[dict[str, float], float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--populations', type=int, nargs='+', default=[50, 500, 2000, 10000])
+    parser.add_argument('--populations', type=int, nargs='+',
+                        default=[50, 500, 1000, 2000, 10000])
     parser.add_argument('--duration', type=float, default=400.0,
                         help='sim seconds per episode for N <= 500')
     parser.add_argument('--min-duration', type=float, default=60.0,
