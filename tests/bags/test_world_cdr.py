@@ -11,9 +11,9 @@ from std_msgs.msg import Float64, String
 
 from mona_controller.messages import set_stamp
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.world_cdr import (clock_cdr, cue_grid_cdr, cue_image_cdr, float64_cdr,
-                                     markers_cdr, pose_array_cdr, states_cdr, states_from_cdr,
-                                     string_cdr)
+from swarm_metrics.world_cdr import (STATE_COLOURS, clock_cdr, cue_grid_cdr, cue_image_cdr,
+                                     float64_cdr, markers_cdr, pose_array_cdr, states_cdr,
+                                     states_from_cdr, string_cdr)
 from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image
 
 pytestmark = pytest.mark.ros
@@ -23,6 +23,7 @@ NS = 12_345_678_901
 def same_but_padding(ours: bytes, theirs: bytes, msgtype: str) -> None:
     assert len(ours) == len(theirs)
     assert sum(a != b for a, b in zip(ours, theirs)) <= 3  # alignment bytes rclpy leaves
+    assert ours[48:] == theirs[48:]  # the payload, after the headers' alignment bytes
     assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
         TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)
 
@@ -31,10 +32,8 @@ def same_but_padding(ours: bytes, theirs: bytes, msgtype: str) -> None:
 def test_pose_arrays_are_rclpy_bytes(n):
     poses = np.random.default_rng(n).uniform(-3, 3, (n, 3))
     theirs = bytes(serialize_message(PoseArrayFiller().fill(poses, NS)))
-    if n:
-        assert pose_array_cdr(poses, NS) == theirs
-    else:  # rclpy leaves garbage in the alignment bytes after the frame id
-        same_but_padding(pose_array_cdr(poses, NS), theirs, 'geometry_msgs/msg/PoseArray')
+    # rclpy leaves whatever was in memory in the alignment bytes after the frame id.
+    same_but_padding(pose_array_cdr(poses, NS), theirs, 'geometry_msgs/msg/PoseArray')
 
 
 def test_cue_map_and_grid_are_rclpy_bytes_but_padding():
@@ -54,6 +53,17 @@ def test_small_messages_are_rclpy_bytes():
     assert float64_cdr(0.1) == bytes(serialize_message(Float64(data=0.1)))
     states = np.array([0, 1, 2, 3, 2], dtype=np.uint8)
     assert states_from_cdr(states_cdr(states)).tolist() == states.tolist()
-    markers = TYPESTORE.deserialize_cdr(markers_cdr(np.ones((5, 3)), states, 0.04, NS),
+    poses = np.random.default_rng(5).uniform(0, 2.85, (5, 3))
+    markers = TYPESTORE.deserialize_cdr(markers_cdr(poses, states, 0.04, NS),
                                         'visualization_msgs/msg/MarkerArray').markers
-    assert [m.id for m in markers] == list(range(5)) and markers[2].color.r > 0.8
+    assert [m.id for m in markers] == list(range(5))
+    assert [(m.pose.position.x, m.pose.position.y) for m in markers] == \
+        [tuple(p) for p in poses[:, :2].tolist()]
+    assert [(m.color.r, m.color.g, m.color.b) for m in markers] == \
+        [tuple(np.float32(c)) for c in np.array(STATE_COLOURS)[states, :3]]
+    assert {(m.header.stamp.sec, m.header.stamp.nanosec, m.header.frame_id, m.scale.x)
+            for m in markers} == {(12, 345_678_901, 'world', 0.08)}
+    # Built by tiling one marker's bytes: equal to the type store's own serialization.
+    assert markers_cdr(poses, states, 0.04, NS) == TYPESTORE.serialize_cdr(
+        TYPESTORE.types['visualization_msgs/msg/MarkerArray'](markers=markers),
+        'visualization_msgs/msg/MarkerArray')

@@ -9,6 +9,7 @@ view all take their bytes from here, so a bag and the live view carry the same m
 
 from __future__ import annotations
 
+import functools
 import json
 import struct
 
@@ -117,13 +118,14 @@ def cue_grid_cdr(cue: np.ndarray, cell_size: float, ns: int) -> bytes:
     /world/cue_grid: a map overlay in Foxglove's 3D panel)."""
     rows, cols = cue.shape
     scaled = np.clip(np.rint(cue.astype(np.float64) * (100.0 / 255.0)), 0, 100).astype(np.int8)
-    info = TYPES['nav_msgs/msg/MapMetaData'](
-        map_load_time=_time(ns), resolution=float(cell_size), width=cols, height=rows,
-        origin=TYPES['geometry_msgs/msg/Pose'](
-            position=TYPES['geometry_msgs/msg/Point'](x=0.0, y=0.0, z=0.0),
-            orientation=TYPES['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=0.0, w=1.0)))
-    msg = TYPES[OCCUPANCY_GRID](header=_header(ns), info=info, data=scaled.ravel())
-    return serialize(msg, OCCUPANCY_GRID)
+    # By hand: the type store's serializer takes milliseconds even for the empty grid.
+    head = _header_cdr(ns, WORLD_FRAME)
+    head += b'\x00' * (-len(head) % 4)
+    head += struct.pack('<iIfII', ns // 1_000_000_000, ns % 1_000_000_000, cell_size, cols,
+                        rows)  # MapMetaData: map_load_time, resolution, width, height
+    head += b'\x00' * (-len(head) % 8)
+    head += struct.pack('<7d', 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)  # origin: the world's
+    return CDR_LE + head + struct.pack('<I', scaled.size) + scaled.tobytes()
 
 
 def states_cdr(states: np.ndarray) -> bytes:
@@ -139,33 +141,82 @@ def states_from_cdr(data: bytes) -> np.ndarray:
     return np.asarray(TYPESTORE.deserialize_cdr(data, UINT8_ARRAY).data, dtype=np.uint8)
 
 
+def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):
+    """One robot's cylinder marker."""
+    point, quaternion = TYPES['geometry_msgs/msg/Point'], TYPES['geometry_msgs/msg/Quaternion']
+    return TYPES['visualization_msgs/msg/Marker'](
+        header=_header(stamp_ns), ns='robots', id=robot, type=3, action=0,  # CYLINDER, ADD
+        pose=TYPES['geometry_msgs/msg/Pose'](
+            position=point(x=x, y=y, z=MARKER_HEIGHT / 2),
+            orientation=quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+        scale=TYPES['geometry_msgs/msg/Vector3'](x=2 * body_radius, y=2 * body_radius,
+                                                 z=MARKER_HEIGHT),
+        color=TYPES['std_msgs/msg/ColorRGBA'](r=colour[0], g=colour[1], b=colour[2],
+                                              a=colour[3]),
+        lifetime=TYPES['builtin_interfaces/msg/Duration'](sec=0, nanosec=0),
+        frame_locked=False, points=[], colors=[], texture_resource='',
+        texture=TYPES['sensor_msgs/msg/CompressedImage'](
+            header=_header(0, ''), format='', data=np.zeros(0, dtype=np.uint8)),
+        uv_coordinates=[], text='', mesh_resource='',
+        mesh_file=TYPES['visualization_msgs/msg/MeshFile'](
+            filename='', data=np.zeros(0, dtype=np.uint8)),
+        mesh_use_embedded_materials=False)
+
+
+# Sentinels that locate the varying fields of a serialized marker (see _marker_layout).
+_ID, _X, _Y, _RGBA = 0x5EA5EA11, 1234.5678, 8765.4321, (0.125, 0.375, 0.625, 0.875)
+
+
+#: Where a marker's varying fields sit in its block (checked by _marker_layout).
+_MARKER_OFFSETS = {'id': 32, 'x': 44, 'y': 52, 'rgba': 124}
+
+
+@functools.cache
+def _marker_layout(body_radius: float) -> tuple[int, int, bytes]:
+    """(bytes per marker with the padding after it, that padding, a marker's block with
+    stamp 0, id, x, y and colour to be written in at :data:`_MARKER_OFFSETS`).
+
+    Every marker serializes to the same number of bytes and needs no padding between
+    markers (checked here), so N markers are one block tiled N times with those fields
+    written in: what the type store builds with thousands of Python objects, numpy does in
+    one pass.
+    """
+    blocks = []
+    for count in (1, 3):
+        array = TYPES[MARKER_ARRAY](markers=[_marker(0, _ID, _X, _Y, _RGBA, body_radius)] * count)
+        blocks.append(serialize(array, MARKER_ARRAY))
+    # A marker ends with a bool and the next begins with an int32: 4-byte alignment between.
+    pad = -(len(blocks[0]) - 8) % 4
+    block = blocks[0][8:] + b'\x00' * pad
+    size = len(block)
+    if size % 8 or blocks[1][8:] != (block * 3)[:len(block) * 3 - pad]:  # pragma: no cover
+        raise RuntimeError('visualization_msgs/Marker does not tile: cannot build markers fast')
+    offsets = {'id': block.index(struct.pack('<i', _ID)), 'x': block.index(struct.pack('<d', _X)),
+               'y': block.index(struct.pack('<d', _Y)),
+               'rgba': block.index(struct.pack('<4f', *_RGBA))}
+    if offsets != _MARKER_OFFSETS or block[:8] != bytes(8):  # pragma: no cover
+        raise RuntimeError(f'visualization_msgs/Marker fields moved: {offsets}')
+    return size, pad, block
+
+
 def markers_cdr(poses: np.ndarray, states: np.ndarray | None, body_radius: float,
                 ns: int) -> bytes:
     """visualization_msgs/MarkerArray: one cylinder per robot (ns 'robots', id = robot),
-    coloured by controller state (:data:`STATE_COLOURS`; without states, wait colour for
-    none)."""
-    marker_type, colour_type = (TYPES['visualization_msgs/msg/Marker'],
-                                TYPES['std_msgs/msg/ColorRGBA'])
-    point, quaternion = TYPES['geometry_msgs/msg/Point'], TYPES['geometry_msgs/msg/Quaternion']
-    vector, duration = (TYPES['geometry_msgs/msg/Vector3'],
-                        TYPES['builtin_interfaces/msg/Duration'])
-    colours = [colour_type(r=r, g=g, b=b, a=a) for r, g, b, a in STATE_COLOURS]
-    header = _header(ns)
-    scale = vector(x=2 * body_radius, y=2 * body_radius, z=MARKER_HEIGHT)
-    orientation = quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
-    states = np.zeros(len(poses), dtype=np.uint8) if states is None else states
-    markers = []
-    for k, ((x, y, _), state) in enumerate(zip(np.asarray(poses).tolist(), states.tolist())):
-        markers.append(marker_type(
-            header=header, ns='robots', id=k, type=3, action=0,  # CYLINDER, ADD
-            pose=TYPES['geometry_msgs/msg/Pose'](position=point(x=x, y=y, z=MARKER_HEIGHT / 2),
-                                                 orientation=orientation),
-            scale=scale, color=colours[state], lifetime=duration(sec=0, nanosec=0),
-            frame_locked=False, points=[], colors=[], texture_resource='',
-            texture=TYPES['sensor_msgs/msg/CompressedImage'](
-                header=_header(0, ''), format='', data=np.zeros(0, dtype=np.uint8)),
-            uv_coordinates=[], text='', mesh_resource='',
-            mesh_file=TYPES['visualization_msgs/msg/MeshFile'](
-                filename='', data=np.zeros(0, dtype=np.uint8)),
-            mesh_use_embedded_materials=False))
-    return serialize(TYPES[MARKER_ARRAY](markers=markers), MARKER_ARRAY)
+    coloured by controller state (:data:`STATE_COLOURS`; without states, follow's colour)."""
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    n = len(poses)
+    states = np.zeros(n, dtype=np.uint8) if states is None else np.asarray(states)
+    size, pad, block = _marker_layout(float(body_radius))
+    offsets = _MARKER_OFFSETS
+    out = np.tile(np.frombuffer(block, dtype=np.uint8), n).reshape(n, size)
+    # The header's stamp opens each marker's block.
+    out[:, 0:8] = np.frombuffer(struct.pack('<iI', ns // 1_000_000_000, ns % 1_000_000_000),
+                                dtype=np.uint8)
+    out[:, offsets['id']:offsets['id'] + 4] = \
+        np.arange(n, dtype='<i4')[:, None].view(np.uint8)
+    for key, column in (('x', 0), ('y', 1)):
+        out[:, offsets[key]:offsets[key] + 8] = \
+            np.ascontiguousarray(poses[:, column], dtype='<f8')[:, None].view(np.uint8)
+    colours = np.asarray(STATE_COLOURS, dtype='<f4')[np.minimum(states, len(STATE_COLOURS) - 1)]
+    out[:, offsets['rgba']:offsets['rgba'] + 16] = np.ascontiguousarray(colours).view(np.uint8)
+    return CDR_LE + struct.pack('<I', n) + out.tobytes()[:n * size - pad if n else 0]

@@ -155,6 +155,10 @@ def build_parser() -> argparse.ArgumentParser:
     add('--peers', type=_peers, metavar='IP,IP',
         help="every host's address (this one's too): discover by unicast over the LAN "
              'instead of loopback (writes <out>/fastdds_peers.xml)')
+    add('--live', action='store_true',
+        help='also serve the run to Foxglove (the live node, swarm_supervisor.live_node)')
+    add('--live-port', type=bounded(int, 0, 65535), default=8765, metavar='PORT',
+        help='--live: its WebSocket port on localhost (default 8765)')
     add('--domain', type=bounded(int, 0, 232), metavar='ID',
         help='ROS domain id, the same on every host of a split run (default: a free one, '
              'or SWARM_DOMAIN_ID)')
@@ -252,7 +256,10 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
     commands['supervisor'] = [executables['supervisor'], *ros_args,
                               '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
                               '-p', 'recorders:=metrics']
-    kinds = ROLES[getattr(options, 'role', 'all')]
+    if getattr(options, 'live', False):
+        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.live_node', '--ros-args',
+                            '-p', f'port:={options.live_port}']
+    kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
     return {name: command for name, command in commands.items()
             if name.partition('_')[0] in kinds}
 

@@ -14,10 +14,11 @@ from pathlib import Path
 from tqdm import tqdm
 
 from swarm_supervisor.arguments import bounded
-from swarm_supervisor.config import load_config
+from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.live import DEFAULT_PORT, LiveServer, LiveView, announce
 from swarm_supervisor.outputs import write_episode
 from swarm_supervisor.record import BagRecorder, RecordError
-from swarm_supervisor.runner import EpisodeObserver, run_episode
+from swarm_supervisor.runner import EpisodeObserver, EpisodeResult, Pacer, run_episode
 
 
 def register(subparsers) -> None:
@@ -40,7 +41,26 @@ def register(subparsers) -> None:
     parser.add_argument('--bag', action='store_true',
                         help='also record the episode into DIR/bag (rosbag2, MCAP), the same '
                              "record the node system's metrics node writes (docs/bags.md)")
+    parser.add_argument('--live', action='store_true',
+                        help='serve the episode to Foxglove while it runs (WebSocket on '
+                             'localhost, see --port; docs/running.md)')
+    parser.add_argument('--port', type=bounded(int, 0, 65535), default=DEFAULT_PORT,
+                        help=f'--live: the WebSocket port (default {DEFAULT_PORT}; 0: any free '
+                             'one, printed)')
+    parser.add_argument('--pace', type=bounded(float, 0.001, 1e6), metavar='X',
+                        help='run at X times real time (e.g. 10: ten sim seconds per second), '
+                             'to follow it live (default: as fast as possible)')
     parser.set_defaults(handler=run)
+
+
+def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult:
+    """The episode, with a progress bar."""
+    duration = config.episode.duration
+    with tqdm(total=duration, unit='sim s', desc=f'N={config.episode.population}',
+              disable=None, file=sys.stderr, bar_format='{l_bar}{bar}| {n:.0f}/{total:.0f} '
+              'sim s [{elapsed}<{remaining}]') as bar:
+        return run_episode(config, snapshot_times=config.study.snapshot_times + (duration,),
+                           progress=lambda t: bar.update(t - bar.n), observers=observers)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,7 +72,6 @@ def run(args: argparse.Namespace) -> int:
                if value is not None}
     controller = {} if args.speed is None else {'speed': args.speed / 100}
     config = config.replace(episode=episode, controller=controller)
-    duration = config.episode.duration
     observers: list[EpisodeObserver] = []
     recorder = None
     if args.bag:
@@ -62,11 +81,22 @@ def run(args: argparse.Namespace) -> int:
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
         observers.append(recorder)
-    with tqdm(total=duration, unit='sim s', desc=f'N={config.episode.population}',
-              disable=None, file=sys.stderr, bar_format='{l_bar}{bar}| {n:.0f}/{total:.0f} '
-              'sim s [{elapsed}<{remaining}]') as bar:
-        result = run_episode(config, snapshot_times=config.study.snapshot_times + (duration,),
-                             progress=lambda t: bar.update(t - bar.n), observers=observers)
+    server = None
+    if args.live:
+        try:
+            server = LiveServer(args.port)
+        except RuntimeError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+        announce(server, 'mona-swarm run')
+        observers.append(LiveView(server, pace=args.pace))
+    elif args.pace is not None:
+        observers.append(Pacer(args.pace))
+    try:
+        result = _run(config, observers)
+    finally:
+        if server is not None:
+            server.stop()
     extra = {}
     if recorder is not None:
         try:

@@ -27,6 +27,26 @@ class EpisodeObserver(Protocol):
         """The episode ran its duration."""
 
 
+class Pacer:
+    """An observer that holds the episode to ``pace`` sim seconds per wall second (so a person
+    can follow it, e.g. in the live view)."""
+
+    def __init__(self, pace: float) -> None:
+        self.pace = pace
+        self.started = time.perf_counter()
+
+    def start(self, episode: Episode) -> None:
+        self.started = time.perf_counter()
+
+    def step(self, episode: Episode, step: Step) -> None:
+        ahead = step.time_ns / 1e9 / self.pace - (time.perf_counter() - self.started)
+        if ahead > 0.002:  # sleep in slices the OS honours
+            time.sleep(ahead)
+
+    def finish(self, episode: Episode) -> None:
+        pass
+
+
 @dataclasses.dataclass
 class EpisodeResult:
     """Everything one episode produced."""

@@ -1,0 +1,133 @@
+"""``mona-swarm run --live``: a real Foxglove WebSocket client watches an embedded episode.
+
+The client (tests/live/foxclient.py, the ``websockets`` package speaking the protocol)
+connects, lists the advertised channels, subscribes to all, decodes every message with the
+advertised ``ros2msg`` schemas, and checks what it saw against the episode and its bag.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from foxclient import Capture, connect_when_up
+from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.world_cdr import STATE_COLOURS
+from swarm_supervisor.live import LIVE_TOPICS
+
+POPULATION, DURATION, PACE = 6, 60.0, 12.0
+
+
+def start_run(out: Path, *extra: str) -> tuple[subprocess.Popen, str]:
+    """``mona-swarm run --live --port 0`` in a subprocess; (process, the URL it prints)."""
+    process = subprocess.Popen(
+        [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', str(POPULATION),
+         '--duration', str(DURATION), '--seed', '2', '--out', str(out), '--live', '--port',
+         '0', *extra], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    for line in process.stderr:
+        found = re.search(r'live view on (ws://\S+)', line)
+        if found:
+            return process, found.group(1)
+    process.wait(10)
+    pytest.fail(f'no live view announced; exit {process.returncode}')
+
+
+def enough(capture: Capture) -> bool:
+    return len(capture.messages.get('/world/poses', ())) >= 8 and \
+        len(capture.messages.get('/metrics/coherency', ())) >= 3 and \
+        '/world/cue_map' in capture.messages and '/episode' in capture.messages
+
+
+@pytest.fixture(scope='module')
+def watched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Capture, Path, str]:
+    """(what the client saw, the run's folder, its stdout) of a paced episode with a bag."""
+    out = tmp_path_factory.mktemp('live') / 'run'
+    process, url = start_run(out, '--pace', str(PACE), '--bag')
+    try:
+        seen = connect_when_up(url, seconds=30, done=enough)
+        stdout, stderr = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert process.returncode == 0, stderr
+    return seen, out, stdout
+
+
+def test_the_client_lists_every_channel_as_ros2_cdr(watched):
+    seen, _, _ = watched
+    assert seen.server_info['name'] == 'mona-swarm'
+    assert 'time' in seen.server_info['capabilities']
+    assert set(seen.channels) == set(LIVE_TOPICS)
+    for topic, channel in seen.channels.items():
+        assert (channel['encoding'], channel['schemaEncoding']) == ('cdr', 'ros2msg'), topic
+        assert channel['schemaName'] == LIVE_TOPICS[topic]
+
+
+def test_robots_arena_cue_and_sim_time(watched):
+    seen, _, _ = watched
+    poses = seen.messages['/world/poses']
+    assert all(len(msg.poses) == POPULATION for _, msg in poses)
+    stamps = [msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec for _, msg in poses]
+    assert stamps == [log_time for log_time, _ in poses]  # log time = sim time
+    assert all(b > a for a, b in zip(stamps, stamps[1:]))  # sim time increases
+    assert stamps[-1] - stamps[0] > 2e9
+    assert all(b >= a for a, b in zip(seen.times, seen.times[1:])) and seen.times[-1] > 0
+    for _, msg in seen.messages['/world/poses']:
+        xy = np.array([(p.position.x, p.position.y) for p in msg.poses])
+        assert ((xy > 0) & (xy < 2.85)).all()  # inside the arena
+    markers = seen.messages['/world/markers'][-1][1].markers
+    assert [m.id for m in markers] == list(range(POPULATION))
+    colours = {tuple(round(c, 3) for c in colour) for colour in STATE_COLOURS}
+    assert {(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3),
+             round(m.color.a, 3)) for m in markers} <= colours
+    states = seen.messages['/world/robot_states'][-1][1]
+    assert len(bytes(states.data)) == POPULATION
+    image = seen.messages['/world/cue_map'][-1][1]
+    assert (image.height, image.width, image.encoding) == (285, 285, 'mono8')
+    grid = seen.messages['/world/cue_grid'][-1][1]
+    assert grid.info.width == 285 and grid.info.resolution == pytest.approx(0.01)  # float32
+    status = json.loads(seen.messages['/world/status'][-1][1].data)
+    assert status['state'] in ('running', 'finished') and status['mode'] == 'embedded'
+
+
+def test_live_equals_the_bag(watched):
+    """The announcement and every metric sample seen live are the bag's."""
+    seen, out, stdout = watched
+    assert 'bag' in stdout
+    bag = read_episode_bag(out / 'bag')
+    announced = json.loads(seen.messages['/episode'][0][1].data)
+    assert announced == bag.announcement
+    assert announced['population'] == POPULATION
+    for name in ('mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency'):
+        recorded = dict(zip(*(values.tolist() for values in bag.metric(name))))
+        live = [(t, msg.data) for t, msg in seen.messages[f'/metrics/{name}']]
+        assert len(live) >= 3
+        assert all(recorded[t] == value for t, value in live), name
+
+
+def test_pace_holds_the_episode_to_a_multiple_of_real_time(watched):
+    _, out, _ = watched
+    record = json.loads((out / 'episode.json').read_text())
+    assert PACE * 0.8 < record['real_time_factor'] <= PACE * 1.05
+
+
+def test_a_taken_port_is_an_error_naming_it(tmp_path):
+    blocker = subprocess.Popen(
+        [sys.executable, '-c', 'import socket, time; s = socket.socket(); '
+         's.bind(("127.0.0.1", 0)); s.listen(); print(s.getsockname()[1], flush=True); '
+         'time.sleep(60)'], stdout=subprocess.PIPE, text=True)
+    try:
+        port = blocker.stdout.readline().strip()
+        result = subprocess.run(
+            [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '3',
+             '--duration', '1', '--out', str(tmp_path / 'x'), '--live', '--port', port],
+            capture_output=True, text=True, timeout=120)
+    finally:
+        blocker.kill()
+    assert result.returncode == 2
+    assert f'127.0.0.1:{port}' in result.stderr

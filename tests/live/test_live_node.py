@@ -1,0 +1,78 @@
+"""``scripts/swarm.sh --live``: a real Foxglove WebSocket client watches the node system.
+
+The live node forwards the recorded topics as the raw CDR the world, the supervisor and the
+metrics node publish; the client decodes them with the advertised ``ros2msg`` schemas.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+import sys
+from pathlib import Path
+
+import pytest
+
+from foxclient import Capture, connect_when_up
+from swarm_supervisor.live_node import NODE_TOPICS
+
+sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
+from swarmrun import SwarmRun  # noqa: E402
+
+pytestmark = pytest.mark.ros
+POPULATION, DURATION = 4, 30.0
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(('127.0.0.1', 0))
+        return probe.getsockname()[1]
+
+
+def enough(capture: Capture) -> bool:
+    return len(capture.messages.get('/world/poses', ())) >= 6 and \
+        len(capture.messages.get('/metrics/coherency', ())) >= 3 and \
+        '/world/cue_map' in capture.messages and '/episode' in capture.messages
+
+
+@pytest.fixture(scope='module')
+def watched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Capture, SwarmRun, int]:
+    """(what the client saw, the run, its exit status)."""
+    port = free_port()
+    run = SwarmRun(tmp_path_factory.mktemp('live') / 'run',
+                   ['--population', str(POPULATION), '--duration', str(DURATION),
+                    '--seed', '3', '--live', '--live-port', str(port)])
+    try:
+        seen = connect_when_up(f'ws://127.0.0.1:{port}', timeout=120, seconds=120,
+                               done=enough)
+        status = run.wait()
+    finally:
+        run.stop()
+    return seen, run, status
+
+
+def test_the_run_with_a_live_view_succeeds_and_the_live_node_ends_by_itself(watched):
+    _, run, status = watched
+    assert status == 0, run.stderr
+    assert 'live' in run.nodes()
+    assert 'live view on ws://127.0.0.1:' in run.log('live')
+
+
+def test_the_client_sees_the_swarm_with_ros2_schemas(watched):
+    seen, _, _ = watched
+    assert set(seen.channels) == set(NODE_TOPICS)
+    for topic, channel in seen.channels.items():
+        assert (channel['encoding'], channel['schemaEncoding']) == ('cdr', 'ros2msg'), topic
+    poses = seen.messages['/world/poses']
+    assert len(poses) >= 6 and all(len(msg.poses) == POPULATION for _, msg in poses)
+    stamps = [msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec for _, msg in poses]
+    assert all(b > a for a, b in zip(stamps, stamps[1:]))  # sim time increases
+    assert stamps == [log_time for log_time, _ in poses]
+    announced = json.loads(seen.messages['/episode'][0][1].data)
+    assert announced['population'] == POPULATION and announced['seed'] == 3
+    image = seen.messages['/world/cue_map'][-1][1]
+    assert (image.height, image.width, image.encoding) == (285, 285, 'mono8')
+    values = [msg.data for _, msg in seen.messages['/metrics/coherency']]
+    assert all(0 < value < 4.1 for value in values)  # metres, inside a 2.85 m arena
+    status = json.loads(seen.messages['/world/status'][-1][1].data)
+    assert status['mode'] == 'lockstep'
