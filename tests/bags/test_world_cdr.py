@@ -9,11 +9,13 @@ from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, String
 
+from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.world_cdr import (STATE_COLOURS, clock_cdr, cue_grid_cdr, cue_image_cdr,
                                      float64_cdr, markers_cdr, pose_array_cdr, states_cdr,
                                      states_from_cdr, string_cdr)
+from swarm_supervisor.record import status_json
 from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image
 
 pytestmark = pytest.mark.ros
@@ -67,3 +69,9 @@ def test_small_messages_are_rclpy_bytes():
     assert markers_cdr(poses, states, 0.04, NS) == TYPESTORE.serialize_cdr(
         TYPESTORE.types['visualization_msgs/msg/MarkerArray'](markers=markers),
         'visualization_msgs/msg/MarkerArray')
+
+
+def test_the_recorder_status_text_is_the_contract_text():
+    status = WorldStatus(3, WorldState.FINISHED, step=7, steps=9, time_ns=NS, mode='embedded',
+                         misses=(0, 1, 2), absent=(1,), cleaning_events=4, error='x')
+    assert status_json(status) == status.to_json()

@@ -16,6 +16,7 @@ For the study, :func:`record_episode` runs one episode and writes its bag.
 from __future__ import annotations
 
 import dataclasses
+import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -53,6 +54,16 @@ TOPICS: dict[str, tuple[str, Qos]] = {
     **{METRICS_PREFIX + name: (FLOAT64, offered_qos(10)) for name in METRIC_NAMES},
     ROBOT_STATES: (UINT8_ARRAY, offered_qos(10)),
 }
+
+
+def status_json(status: WorldStatus) -> str:
+    """``status.to_json()``, without ``dataclasses.asdict``'s deep copy (a third of a
+    millisecond for 50 robots' misses, once per sim second)."""
+    document = {field.name: getattr(status, field.name)
+                for field in dataclasses.fields(status)}
+    document.update(state=status.state.value, misses=list(status.misses),
+                    absent=list(status.absent))
+    return json.dumps(document)
 
 
 class RecordError(RuntimeError):
@@ -191,7 +202,7 @@ class BagRecorder(EpisodeObserver):
                              steps=episode.steps_total,
                              time_ns=self.start_ns + episode.time_ns, mode=EMBEDDED_MODE,
                              misses=(0,) * n, cleaning_events=self._cleaning_events)
-        self._take(self.recorder.status(string_cdr(status.to_json()))[1])
+        self._take(self.recorder.status(string_cdr(status_json(status)))[1])
 
     def _take(self, rows: list[tuple[int, dict[str, float]]]) -> None:
         self.rows += [row for _, row in rows]
