@@ -4,7 +4,8 @@ the three metrics growing, from any episode bag (either runner's).
 Fast by construction: matplotlib draws the static parts (axes, labels, legend) and the full
 metric curves once; each frame is then composed in numpy (the cue through a colour table,
 the robots as stamped discs, the curves revealed up to the frame's time) and only the clock
-is drawn per frame (Pillow). A 4000 s episode of 50 robots at 100x renders in seconds.
+is drawn per frame (Pillow). A 4000 s episode of 50 robots at 100x (1000 frames) renders in
+16-17 s on a busy 2-core machine (11 s of CPU).
 
 The cue of a frame is rebuilt from the cleaning record (:func:`swarm_world.world.clean_under`,
 as the analysis does), so the map is exact at every frame, whatever the recorded cue map
@@ -94,7 +95,7 @@ def read_record(path: str | Path) -> Record:
     """
     mcap = find_mcap(find_bag(path))
     setup = None
-    runner = 'embedded'
+    runner = None
     times, poses, state_times, states, cleaning, maps = [], [], [], [], [], []
     metrics: dict[str, list[tuple[int, float]]] = {}
     for message in McapScan(mcap):
@@ -112,8 +113,8 @@ def read_record(path: str | Path) -> Record:
         elif topic.startswith(METRICS_PREFIX):
             metrics.setdefault(topic[len(METRICS_PREFIX):], []).append(
                 (message.log_time, float(decode(message).data)))
-        elif topic == '/world/status' and message.data.find(b'"mode"') >= 0:
-            runner = decode_json(message).get('mode', runner)
+        elif topic == '/world/status' and runner is None:
+            runner = decode_json(message).get('mode')  # one status tells
         elif topic == EPISODE and setup is None:
             document = decode_json(message)
             if not document.get('shutdown'):
@@ -134,7 +135,8 @@ def read_record(path: str | Path) -> Record:
         state_array = np.stack([initial] + [by_time.get(t, initial) for t in times])
     order = np.argsort(pose_times, kind='stable')
     return Record(
-        setup=setup, runner=runner, pose_times=pose_times[order], poses=all_poses[order],
+        setup=setup, runner=runner or 'unknown runner', pose_times=pose_times[order],
+        poses=all_poses[order],
         states=None if state_array is None else state_array[order],
         cleaning=sorted(((t - start, p) for t, p in cleaning), key=lambda e: e[0]),
         cue_maps=[(t - start, m) for t, m in sorted(maps, key=lambda e: e[0])],
