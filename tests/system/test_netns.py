@@ -74,6 +74,7 @@ def hosts() -> Iterator[tuple[str, str]]:
             ip('netns', 'del', name)
 
 
+@pytest.mark.slow
 def test_core_and_controllers_in_two_namespaces_give_the_single_host_record(hosts, tmp_path):
     core_ns, controllers_ns = hosts
     common = ['--domain', str(DOMAIN), '--peers', f'{CORE_IP},{CONTROLLERS_IP}',
