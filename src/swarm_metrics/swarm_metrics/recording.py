@@ -331,6 +331,10 @@ class Recorder:
         if topic == CUE_MAP:
             self.episode.last_map_ns = max(self.episode.last_map_ns, stamp)
         last = self._last_recorded.get(topic)
+        if last == stamp and not self.record_all:
+            # The same instant again: the world's end publishes the last step's map a second
+            # time, and whether the first one reaches us (keep-last-1) is a race.
+            return
         if (self.record_all or last is None or stamp - last >= self.periods_ns[topic]
                 or stamp >= self.episode.setup.end_ns):
             self._last_recorded[topic] = stamp

@@ -165,7 +165,8 @@ class BagRecorder(EpisodeObserver):
             self.recorder.periodic(CLOCK, clock_cdr(now))
         # After the last step the world at once publishes the end's cue map and status, with
         # the same stamp, on latched keep-last-1 topics: those replace the last step's, which
-        # the metrics node (almost) never sees. So they are left out here.
+        # the metrics node may or may not see (it records one map per instant). So they are
+        # left out here.
         last = episode.done
         if not last and crossed(step.before_ns, step.time_ns, self._periods['map_period']):
             self._route(CUE_MAP, cue_image_cdr(world.cue, now))
