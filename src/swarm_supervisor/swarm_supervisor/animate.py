@@ -375,10 +375,14 @@ def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: f
             if progress is not None:
                 progress(done, len(times))
 
-    if kind == '.mp4':
-        _write_mp4(partial, counted(), fps)
-    else:
-        _write_gif(partial, counted(), fps)
+    try:
+        if kind == '.mp4':
+            _write_mp4(partial, counted(), fps)
+        else:
+            _write_gif(partial, counted(), fps)
+    except BaseException:
+        partial.unlink(missing_ok=True)  # no half video left behind
+        raise
     partial.replace(out)  # a video is there only once it is whole
     return {'path': str(out), 'frames': len(times), 'fps': fps, 'speedup': speedup,
             'width': renderer.width, 'height': renderer.height,
