@@ -173,6 +173,20 @@ def test_compare_variants_and_unknown_variant():
             .loc['population', 'F'])
     with pytest.raises(ValueError, match='variant must be one of levels'):
         anova(table, 'mean_cue', variant='every')
+    with pytest.raises(ValueError, match='variant must be one of levels'):
+        compare_variants(table, 'mean_cue', variants=('levels', 'every'))
+
+
+def test_a_variant_too_small_to_fit_is_nan_not_an_error():
+    """Two cells of two seeds: the medians over seeds leave no residual, the others fit."""
+    table = synthetic_table(24, population_effect=3.0, speed_effect=1.0, time_effect=0.0)
+    table = table[(table['population'] < 50) & (table['speed'] == 0.08)
+                  & (table['seed'] < 2)]
+    with pytest.raises(ValueError, match='no residual'):
+        anova(table, 'mean_cue', levels=1, variant='medians')
+    frame = compare_variants(table, 'mean_cue', levels=1).set_index('factor')
+    assert frame['medians'].isna().all()
+    assert np.isfinite(frame.loc['population', 'levels'])
 
 
 def test_report_variant_table_covers_both_responses_and_every_variant():

@@ -153,11 +153,19 @@ def anova(table: pd.DataFrame, response: str, levels: int = DEFAULT_LEVELS,
 def compare_variants(table: pd.DataFrame, response: str, levels: int = DEFAULT_LEVELS,
                      variants: Sequence[str] = VARIANTS) -> pd.DataFrame:
     """F of each factor under each variant: one row per factor, one column per variant
-    (NaN where a factor has one level), plus each variant's number of observations as the
-    row 'observations'."""
+    (NaN where a factor has one level, and for every factor of a variant that leaves too few
+    observations to fit, e.g. medians over seeds of a small design), plus each variant's
+    number of observations as the row 'observations'."""
+    unknown = [variant for variant in variants if variant not in VARIANTS]
+    if unknown:
+        raise ValueError(f'variant must be one of {", ".join(VARIANTS)}, not {unknown[0]!r}')
     columns = {}
     for variant in variants:
-        result = anova(table, response, levels, variant).set_index('factor')
+        try:
+            result = anova(table, response, levels, variant).set_index('factor')
+        except ValueError:  # this variant cannot be fitted on this table: a column of NaN
+            columns[variant] = pd.Series(dtype=float)
+            continue
         column = result['F'].drop('residual')
         column['observations'] = float(result['df'].sum() + 1)
         columns[variant] = column
