@@ -27,7 +27,7 @@ CASES = {
     'supervisor_empty': ([str(BIN / 'supervisor_node'), '--ros-args', '-p',
                           'episode.population:=0'],
                          'episode.population = 0 is out of range for a ros run: allowed '
-                         '[1, 1000] robots'),
+                         '[1, 100000] robots'),
     'supervisor_fraction': ([str(BIN / 'supervisor_node'), '--ros-args', '-p',
                              'episode.population:=2.5'],
                             'episode.population = 2.5: expected a whole number'),

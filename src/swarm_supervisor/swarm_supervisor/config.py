@@ -81,7 +81,7 @@ class StudyParams:
     with any extra factors: other parameters, each with a list of levels."""
 
     populations: tuple[int, ...] = param((10, 20, 30, 40, 50), unit='robots', low=0,
-                                         high=1000, doc='population factor N')
+                                         high=100_000, doc='population factor N')
     speeds: tuple[float, ...] = param((0.04, 0.08), unit='m/s', low=0.0, high=1.0,
                                       doc='speed factor v_r')
     seeds: tuple[int, ...] = param((1, 2, 3, 4, 5, 6), low=0, high=2**63 - 1,

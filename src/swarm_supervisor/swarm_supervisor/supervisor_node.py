@@ -82,7 +82,7 @@ class Supervisor(Node):
         self.options = declare_section(self, SupervisorParams)
         if self.config.episode.population < 1:
             raise ParameterError(f'episode.population = {self.config.episode.population} is out '
-                                 'of range for a ros run: allowed [1, 1000] robots (a world '
+                                 'of range for a ros run: allowed [1, 100000] robots (a world '
                                  'without robots has nothing to step in lockstep)')
         self.status: WorldStatus | None = None  #: the world's latest
         self.announcement: Announcement | None = None  #: the latest episode announced
