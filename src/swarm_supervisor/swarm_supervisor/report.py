@@ -254,13 +254,11 @@ def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
     """The short reading of the results, as bullet points computed from the data; with a
     sweep, the curves are read at each level of the design factors apart (pooling them would
     mix different models)."""
-    factors = [name for name in study.design_factors(table) if table[name].nunique() > 1]
     lines = []
-    if factors:
-        for key, subset in table.groupby(factors, sort=True):
-            key = key if isinstance(key, tuple) else (key,)
-            prefix = ', '.join(f'{name} = {value}' for name, value in zip(factors, key))
-            lines += [f'[{prefix}] {line}' for line in curve_reading(subset)]
+    facets = figures.variants(table)
+    if len(facets) > 1:  # labelled as the figures' panels
+        for label, subset in facets:
+            lines += [f'[{label}] {line}' for line in curve_reading(subset)]
     else:
         lines += curve_reading(table)
     lines.append(_anova_claim('the mean cue', tables['mean_cue']))
@@ -329,17 +327,21 @@ def _variant_cells(variants: pd.DataFrame) -> pd.DataFrame:
 # Rendering.
 
 def compared_section(compared: Sequence[tuple[dict[str, Any],
-                                              Sequence[claim_checks.ClaimResult]]]) -> list[str]:
+                                              Sequence[claim_checks.ClaimResult]]],
+                     labels: Sequence[str] = ()) -> list[str]:
     """'Compared with the paper': each claim, the paper's words, ours, and whether it holds
-    (one table per combination of the design factors' levels)."""
+    (one table per combination of the design factors' levels, headed by ``labels`` if given,
+    e.g. the figures' panel labels)."""
     lines = ['## Compared with the paper', '',
              "*Each finding of the paper's results section (and any claims added with "
              '`--claims`), checked on the table above by the check its claims file names '
              '(`swarm_supervisor/paper_claims.yaml`); medians over seeds.*', '']
-    for levels, results in compared:
+    labels = list(labels) if len(labels) == len(compared) else [
+        ', '.join(f'{name} = {value}' for name, value in levels.items())
+        for levels, _ in compared]
+    for (levels, results), label in zip(compared, labels):
         if levels:
-            lines += ['### ' + ', '.join(f'{name} = {value}' for name, value in levels.items()),
-                      '']
+            lines += [f'### {label}', '']
         counts = {status: sum(r.status == status for r in results)
                   for status in claim_checks.STATUSES}
         lines += [', '.join(f'{count} {status}' for status, count in counts.items()
@@ -485,7 +487,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     lines += ['', '## What the results show', '',
               '*Computed from the table above; medians over seeds.*', '']
     lines += [f'- {line}' for line in reading(table, tables)]
-    lines += [''] + compared_section(compared)
+    lines += [''] + compared_section(compared, [label for label, _ in figures.variants(table)])
     if matrix is not None:
         lines += [f'Which verdicts change with which factor level, claim by claim: '
                   f'[`{matrix.name}`]({matrix.name}) (and `{sensitivity.MATRIX_CSV}`).', '']
