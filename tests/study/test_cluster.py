@@ -1,6 +1,6 @@
 """The study on a real Dask cluster on loopback: a `dask scheduler` and two `dask worker`
-processes started and stopped here. Same tables as a local run; a worker killed mid-study
-costs only its episode, which another worker runs again."""
+processes started and stopped here. Same tables as a local run, bags included; a worker
+killed mid-study costs only its episode, which another worker runs again."""
 
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def test_cluster_study_equals_local_and_survives_a_killed_worker(cluster, tmp_pa
 
     out = tmp_path / 'cluster'
     running = subprocess.Popen([str(MONA_SWARM), 'study', '--out', str(out), '--config',
-                                str(config), '--scheduler', address],
+                                str(config), '--scheduler', address, '--bag'],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # Kill one worker as soon as the first episode is written: the other episodes are then
     # queued or running, one of them on the worker that dies.
@@ -94,6 +94,9 @@ def test_cluster_study_equals_local_and_survives_a_killed_worker(cluster, tmp_pa
         twin = tmp_path / 'local' / study.EPISODES_DIR / folder.name
         for name in (outputs.METRICS_FILE, outputs.SNAPSHOTS_FILE):
             assert (folder / name).read_bytes() == (twin / name).read_bytes(), folder
+        # The bag (a folder) came back from the worker too.
+        assert (folder / study.BAG_DIR / 'metadata.yaml').exists(), folder
+        assert list((folder / study.BAG_DIR).glob('*.mcap')), folder
     record = study.read_invocations(out)[-1]
     assert record['scheduler'] == address and record['ran'] == 6
 

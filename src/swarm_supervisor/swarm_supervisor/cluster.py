@@ -32,18 +32,19 @@ class ClusterError(StudyError):
     """The scheduler cannot be reached (the command line exits 2 with this message)."""
 
 
-def episode_files(task: tuple[Any, tuple[float, ...], str]
+def episode_files(task: tuple[Any, tuple[float, ...], str, bool]
                   ) -> tuple[str, float, float, dict[str, bytes]]:
     """Worker side: run one episode into a temporary folder (with the function a local
     worker runs) and return its files.
 
     Returns:
-        (the study's folder for it, wall s, CPU s, file name -> bytes).
+        (the study's folder for it, wall s, CPU s, relative file path -> bytes).
     """
-    config, times, folder = task
+    config, times, folder, bag = task
     with tempfile.TemporaryDirectory(prefix='mona-episode-') as scratch:
-        _, wall, cpu = _run_and_write((config, times, scratch))
-        files = {path.name: path.read_bytes() for path in sorted(Path(scratch).iterdir())}
+        _, wall, cpu = _run_and_write((config, times, scratch, bag))
+        files = {str(path.relative_to(scratch)): path.read_bytes()
+                 for path in sorted(Path(scratch).rglob('*')) if path.is_file()}
     return folder, wall, cpu, files
 
 
@@ -54,13 +55,14 @@ def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for name, data in files.items():
         if name != outputs.EPISODE_FILE:
+            (out / name).parent.mkdir(parents=True, exist_ok=True)
             (out / name).write_bytes(data)
     temporary = out / (outputs.EPISODE_FILE + '.tmp')
     temporary.write_bytes(files[outputs.EPISODE_FILE])
     os.replace(temporary, out / outputs.EPISODE_FILE)
 
 
-def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str]], scheduler: str,
+def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str, bool]], scheduler: str,
                    progress: bool | None, timeout: float = CONNECT_TIMEOUT
                    ) -> dict[str, tuple[float, float]]:
     """Run the tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).

@@ -25,6 +25,7 @@ import itertools
 import json
 import multiprocessing
 import os
+import shutil
 import signal
 import sys
 import time
@@ -44,6 +45,8 @@ from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, write
 from swarm_supervisor.runner import run_episode
 
 EPISODES_DIR = 'episodes'
+BAG_DIR = 'bag'  #: an episode's bag, inside its folder (``study --bag``)
+VIDEOS_DIR = 'videos'  #: one video per design cell (``study --videos``)
 TABLE_FILE = 'all_metrics.csv'
 PARAMETERS_FILE = 'parameters.yaml'
 TIMING_FILE = 'study.json'
@@ -174,10 +177,11 @@ def _report_progress(seconds: float) -> None:
             _progress_counter.value += seconds
 
 
-def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]
+def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str, bool]
                    ) -> tuple[str, float, float]:
-    """Run one episode and write its folder; return (folder, wall s, CPU s), with writing."""
-    config, times, folder = task
+    """Run one episode and write its folder (with its bag in ``bag/`` if the task's last item
+    is true); return (folder, wall s, CPU s), with writing."""
+    config, times, folder, bag = task
     started, cpu = time.perf_counter(), time.process_time()
     reported = 0.0
 
@@ -188,9 +192,16 @@ def _run_and_write(task: tuple[SwarmConfig, tuple[float, ...], str]
             reported = t
 
     try:
-        result = run_episode(config, snapshot_times=times, progress=progress)
+        extra = None
+        if bag:
+            from swarm_supervisor.record import record_episode  # the bag's libraries, if asked
+            shutil.rmtree(Path(folder) / BAG_DIR, ignore_errors=True)  # a half-written run's
+            result, _ = record_episode(config, folder, snapshot_times=times, progress=progress)
+            extra = {'bag': BAG_DIR}
+        else:
+            result = run_episode(config, snapshot_times=times, progress=progress)
         _report_progress(config.episode.duration - reported)
-        outputs.write_episode(result, folder)
+        outputs.write_episode(result, folder, extra=extra)
     except Exception:  # the traceback does not survive the trip to the parent otherwise
         raise EpisodeFailed(f'episode {folder} failed:\n{traceback.format_exc()}') from None
     return folder, time.perf_counter() - started, time.process_time() - cpu
@@ -221,8 +232,8 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
 
 def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
               progress: bool | None = None, start_method: str = 'spawn',
-              scheduler: str | None = None,
-              scheduler_timeout: float = 30.0) -> list[dict[str, float]]:
+              scheduler: str | None = None, scheduler_timeout: float = 30.0,
+              bag: bool = False, videos: bool = False) -> list[dict[str, float]]:
     """Run every missing episode of ``config.study`` into ``out_dir`` and tabulate them all.
 
     Episodes already complete in ``out_dir/episodes`` are kept (after checking they were run
@@ -238,6 +249,10 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
         scheduler: the address of a Dask distributed scheduler: run the episodes on its
             workers instead of local processes (:mod:`swarm_supervisor.cluster`).
         scheduler_timeout: seconds to wait for the scheduler to answer.
+        bag: record each episode's bag (the node system's record) in its folder's ``bag/``;
+            a kept episode without one is run again.
+        videos: also render one video per cell of the design (its first seed's episode)
+            into ``out_dir/videos/`` (implies ``bag``).
 
     Returns:
         The tidy table as flat rows (one dict per episode and sample), columns
@@ -256,10 +271,12 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     pending = []
     for spec in specs:
         episode = episode_config(config, spec)
-        if outputs.episode_complete(folders[spec]):
+        bag = bag or videos
+        if outputs.episode_complete(folders[spec]) and (
+                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()):
             _check_kept(folders[spec], episode)
         else:
-            pending.append((episode, times, str(folders[spec])))
+            pending.append((episode, times, str(folders[spec]), bag))
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
     # Longest first (cost grows with N), so the workers run out of work together.
     pending.sort(key=lambda task: -task[0].episode.population * task[0].episode.duration)
@@ -272,10 +289,11 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     rows = tidy_table([folders[spec] for spec in specs],
                       factors=study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
+    rendered = render_videos(out, specs, progress) if videos else []
     _record_invocation(out / TIMING_FILE, {
         'started': stamp,
         'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
-        'scheduler': scheduler,
+        'scheduler': scheduler, 'videos': [str(path.relative_to(out)) for path in rendered],
         'wall_time_s': round(time.perf_counter() - started, 3),
         'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
         'episode_wall_time_s': {Path(folder).name: round(wall, 3)
@@ -284,6 +302,25 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
                                for folder, (_, cpu) in sorted(ran.items())},
     })
     return rows
+
+
+def render_videos(out: Path, specs: Sequence[EpisodeSpec], progress: bool | None,
+                  speedup: float = 100.0) -> list[Path]:
+    """One MP4 per cell of the design, from its first seed's episode bag, into
+    ``out/videos/<episode>.mp4`` (an existing one is kept)."""
+    from swarm_supervisor.animate import animate  # video libraries only when asked
+
+    first = {}
+    for spec in specs:
+        first.setdefault((spec.population, spec.speed, spec.levels), spec)
+    paths = []
+    for spec in tqdm(first.values(), desc='videos', unit='videos', file=sys.stderr,
+                     disable=None if progress is None else not progress):
+        path = out / VIDEOS_DIR / f'{spec.name}.mp4'
+        if not path.exists():
+            animate(out / EPISODES_DIR / spec.name, path, speedup=speedup)
+        paths.append(path)
+    return paths
 
 
 def _record_invocation(path: Path, entry: dict[str, Any]) -> None:

@@ -37,6 +37,12 @@ def register(subparsers) -> None:
                              'speeds, the first two seeds, 60 s episodes')
     parser.add_argument('--jobs', type=bounded(int, 1), metavar='J',
                         help='worker processes (default: one per CPU)')
+    parser.add_argument('--bag', action='store_true',
+                        help="record each episode's bag (the metrics node's record: analyze, "
+                             'replay, animate and Foxglove read it) in its folder')
+    parser.add_argument('--videos', action='store_true',
+                        help='also render one MP4 per design cell (its first seed) into '
+                             'DIR/videos (implies --bag)')
     parser.add_argument('--scheduler', metavar='ADDRESS',
                         help='run the episodes on the workers of this Dask distributed '
                              'scheduler (e.g. tcp://10.0.0.1:8786) instead of local processes; '
@@ -77,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
         raise study.StudyError('--jobs and --scheduler exclude each other (a cluster has as '
                                'many jobs as its workers run)')
     rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
-                           scheduler_timeout=args.scheduler_timeout)
+                           scheduler_timeout=args.scheduler_timeout, bag=args.bag,
+                           videos=args.videos)
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
@@ -91,7 +98,8 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
     """``--from-episodes``: check and analyse existing episode folders; run nothing."""
     unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
                                        ('--jobs', args.jobs),
-                                       ('--scheduler', args.scheduler)) if value]
+                                       ('--scheduler', args.scheduler), ('--bag', args.bag),
+                                       ('--videos', args.videos)) if value]
     if unused:
         raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
                                '--from-episodes, which runs nothing')
