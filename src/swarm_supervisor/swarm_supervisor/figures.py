@@ -240,6 +240,23 @@ def _three_populations(table: pd.DataFrame) -> tuple[pd.DataFrame, list[int], fl
     return chosen, populations, speed, note
 
 
+def _facet_grid(chosen: pd.DataFrame):
+    """Figures 5 and 6: one panel per variant of the design (a single large one without
+    extra factors); returns (variants, faceted?, figure, axes)."""
+    facets = variants(chosen)
+    faceted = len(facets) > 1
+    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    return facets, faceted, fig, axes
+
+
+def _place_title(fig, axes, title: str, faceted: bool) -> None:
+    """Above the panels when faceted, else as the one panel's title."""
+    if faceted:
+        fig.suptitle(title)
+    else:
+        axes[0].set_title(title, fontsize='medium')
+
+
 def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radius: float,
                            smooth: float | None = None) -> str:
     """The fraction of robots within r_c of the source vs time, N = 10, 30, 50 at 8 cm/s
@@ -254,9 +271,7 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
     if smooth is None:
         smooth = float(chosen['t'].max()) / 200
     colours = _colours(table['population'].unique())
-    facets = variants(chosen)
-    faceted = len(facets) > 1
-    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    facets, faceted, fig, axes = _facet_grid(chosen)
     for ax, (label, rows) in zip(axes, facets):
         stats = over_seeds(rows, 'ratio_near_source')
         for n in sorted(populations, reverse=True):
@@ -277,10 +292,7 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
     title = (f'Fig. 5  Robots near the source, v = {speed_label(speed)}\n'
              f'median over {seeds_label(chosen)}, {smooth:.3g}-s moving average'
              + (f'\n{note}' if note else ''))
-    if faceted:
-        fig.suptitle(title)
-    else:
-        axes[0].set_title(title, fontsize='medium')
+    _place_title(fig, axes, title, faceted)
     _finish(fig, path)
     return note
 
@@ -290,9 +302,7 @@ def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
     (one panel per level of the design's extra factors, :func:`variants`)."""
     chosen, populations, speed, note = _three_populations(table)
     colours = _colours(table['population'].unique())
-    facets = variants(chosen)
-    faceted = len(facets) > 1
-    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    facets, faceted, fig, axes = _facet_grid(chosen)
     for ax, (label, rows) in zip(axes, facets):
         stats = over_seeds(rows, 'coherency')
         for n in sorted(populations, reverse=True):
@@ -312,9 +322,6 @@ def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
     axes[0].legend(title='robots', fontsize='small')
     title = (f'Fig. 6  Coherency (lower = tighter swarm), v = {speed_label(speed)}\n'
              f'median and min-max over {seeds_label(chosen)}' + (f'\n{note}' if note else ''))
-    if faceted:
-        fig.suptitle(title)
-    else:
-        axes[0].set_title(title, fontsize='medium')
+    _place_title(fig, axes, title, faceted)
     _finish(fig, path)
     return note
