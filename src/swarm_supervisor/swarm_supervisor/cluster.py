@@ -22,7 +22,7 @@ from typing import Any
 from tqdm import tqdm
 
 from swarm_supervisor import outputs
-from swarm_supervisor.study import StudyError, _run_and_write
+from swarm_supervisor.study import StudyError, _run_and_write, show_done
 
 #: Seconds to wait for the scheduler to answer before giving up (default).
 CONNECT_TIMEOUT = 30.0
@@ -101,11 +101,7 @@ def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str, bool]], 
                 folder, wall, cpu, files = future.result()
                 write_files(folder, files)
                 ran[folder] = wall, cpu
-                bar.update(1)
-                bar.set_postfix_str(Path(folder).name, refresh=False)
-                if bar.disable and progress is None:  # a log, not a terminal
-                    print(f'episode {len(ran)}/{len(pending)} done: {Path(folder).name} '
-                          f'({wall:.1f} s)', file=sys.stderr, flush=True)
+                show_done(bar, progress, len(ran), len(pending), folder, wall)
     finally:
         client.cancel([f for f in futures if not f.done()])
         client.close()

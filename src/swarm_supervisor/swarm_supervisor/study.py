@@ -347,6 +347,17 @@ def _available_cpus() -> int:
         return os.cpu_count() or 1
 
 
+def show_done(bar: tqdm, progress: bool | None, done: int, total: int, folder: str,
+              wall: float) -> None:
+    """Count a finished episode on the progress bar, or, when stderr is a log rather than a
+    terminal (the bar is off by itself), print one line for it."""
+    bar.update(1)
+    bar.set_postfix_str(Path(folder).name, refresh=False)
+    if bar.disable and progress is None:
+        print(f'episode {done}/{total} done: {Path(folder).name} ({wall:.1f} s)',
+              file=sys.stderr, flush=True)
+
+
 def _run_pending(pending: list, jobs: int, progress: bool | None,
                  start_method: str) -> dict[str, tuple[float, float]]:
     """Run the tasks over a pool of ``jobs`` processes with progress bars.
@@ -378,11 +389,7 @@ def _run_pending(pending: list, jobs: int, progress: bool | None,
                     pass
                 else:
                     ran[folder] = wall, cpu
-                    episodes.update(1)
-                    episodes.set_postfix_str(Path(folder).name, refresh=False)
-                    if episodes.disable and progress is None:  # a log, not a terminal
-                        print(f'episode {len(ran)}/{len(pending)} done: {Path(folder).name} '
-                              f'({wall:.1f} s)', file=sys.stderr, flush=True)
+                    show_done(episodes, progress, len(ran), len(pending), folder, wall)
                 seconds.update(min(counter.value, total) - seconds.n)
         pool.close()
     except BaseException:  # Ctrl-C or a failed episode: stop every worker now
