@@ -89,17 +89,22 @@ class World:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
                        self.params.collision_slop)
 
+    def sensed_field(self) -> np.ndarray:
+        """The cue as the ground sensors see it (each cell the mean over a sensor's footprint);
+        cached until the cue changes. A batched engine senses many worlds through this."""
+        if self._sensed is None:
+            self._sensed = cue_field.sensed_field(self.cue, self.footprint)
+        return self._sensed
+
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
         poses = self.poses
-        if self._sensed is None:
-            self._sensed = cue_field.sensed_field(self.cue, self.footprint)
         robots = np.arange(len(poses))
         extra = None
         if self.noise.ground:
             extra = self.noise.ground * noise.normals(self.seed, noise.GROUND_STREAM, robots,
                                                       self.steps, 2)
-        ground = ground_readings(self._sensed, self.params.cell_size, poses,
+        ground = ground_readings(self.sensed_field(), self.params.cell_size, poses,
                                  self.mona.wheel_separation, extra)
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
                                      self.mona.ir_range, self.params.arena_side)
