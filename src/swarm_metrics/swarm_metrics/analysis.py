@@ -1,8 +1,8 @@
 """Recomputing an episode's metrics from its bag, and the replica the metrics node runs online.
 
-The cue is rebuilt from the initial disc (:func:`swarm_world.cue.disc_cue` with the episode's
-parameters) by replaying the ``/world/cleaning`` events through :func:`swarm_world.cue.clean`,
-the function the world itself cleans with, and sampled like the embedded runner samples: a
+The cue is rebuilt from the episode's parameters (:class:`swarm_world.field.CueField`, the
+class the world itself runs: initial field, cleaning, transport ticks) by replaying the
+``/world/cleaning`` events through it, and sampled like the embedded runner samples: a
 row is taken at the first world state at or after each ``sample_period`` boundary, labelled
 with the boundary. The metrics node drives the same :class:`MetricsReplica` with live messages,
 so its online metrics and this offline recomputation agree by construction.
@@ -22,10 +22,9 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
 from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
-from swarm_world import cue as cue_field
 from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
-from swarm_world.world import clean_under
+from swarm_world.field import CueField
 
 #: Later than any sim time.
 NEVER = 2**63 - 1
@@ -104,10 +103,8 @@ class MetricsReplica:
 
     def __init__(self, setup: EpisodeSetup) -> None:
         self.setup = setup
-        self.cue = cue_field.disc_cue(setup.world)
-        self.initial_mean = float(self.cue.mean(dtype=np.float64))
-        self.kernel = cue_field.cleaning_kernel(setup.world.cleaning_radius,
-                                                setup.world.cleaning_peak)
+        self.field = CueField(setup.world, setup.mona)
+        self.initial_mean = self.field.initial_mean
         self.late_events = 0  #: cleaning events that arrived after their time was sampled
         self.poses: np.ndarray = setup.initial_poses.copy()  #: the latest poses
         self._events: list[tuple[int, np.ndarray]] = []
@@ -173,18 +170,29 @@ class MetricsReplica:
         self.confirmed_ns = NEVER
         return self.advance(NEVER)
 
+    @property
+    def cue(self) -> np.ndarray:
+        """The rebuilt cue as far as :meth:`cue_at` has taken it."""
+        return self.field.cue
+
     def cue_at(self, time_ns: int) -> np.ndarray:
-        """The cue after every cleaning event stamped up to ``time_ns`` (applied in order)."""
+        """The cue at ``time_ns``: every cleaning event stamped up to it applied in order, each
+        after the transport ticks of the steps before its own (as the world steps)."""
         due = [event for event in self._events if event[0] <= time_ns]
+        start, step_ns = self.setup.start_ns, self.setup.world.step_ns
         if due:
             self._events = [event for event in self._events if event[0] > time_ns]
-            for _, poses in sorted(due, key=lambda event: event[0]):
-                clean_under(self.cue, poses, self.setup.world, self.setup.mona, self.kernel)
-        return self.cue
+            for stamp, poses in sorted(due, key=lambda event: event[0]):
+                self.field.advance_to(stamp - start - step_ns)
+                self.field.clean(poses)
+        self.field.advance_to(min(time_ns, self.setup.end_ns) - start)  # NEVER: the end
+        return self.field.cue
 
     def _row(self, k: int, poses: np.ndarray) -> dict[str, float]:
-        return sample(k * self.setup.metrics.sample_period, self.cue, self.initial_mean,
-                      poses[:, :2], self.setup.world.centre, self.setup.metrics)
+        t = k * self.setup.metrics.sample_period
+        return sample(t, self.field.cue, self.initial_mean, poses[:, :2],
+                      self.field.source_positions(t), self.setup.metrics, self.field.names,
+                      self.setup.world.cell_size)
 
 
 @dataclasses.dataclass

@@ -16,6 +16,10 @@ from mona_controller.schema import param, validate
 
 #: Column order of metrics.csv and of the metrics topics.
 COLUMNS = ('t', 'mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
+#: With more than one source, metrics.csv adds two columns per source (its name filled in):
+#: the share of the initial cue left in the cells nearest to it, and the fraction of robots
+#: within r_c of it that have no nearer source. Each pair sums to its column of COLUMNS.
+SOURCE_COLUMNS = ('mean_cue_fraction_{}', 'ratio_near_{}')
 #: Up to this many robots, coherency takes every pair's distance at once and numpy's mean of
 #: them, as it always has: the shipped study (N <= 50) keeps its numbers bit for bit. Larger
 #: swarms use a compiled loop that never holds the N^2 / 2 distances (10,000 robots: 50
@@ -28,8 +32,8 @@ class MetricsParams:
     """How the metrics are taken."""
 
     source_radius: float = param(0.7, unit='m', low=0.0, high=100.0,
-                                 doc='r_c: a robot within this distance of the cue centre '
-                                     'counts as near the source')
+                                 doc='r_c: a robot within this distance of the nearest '
+                                     'source counts as near the source')
     sample_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
                                  doc='how often the metrics are sampled (sim time)')
 
@@ -42,13 +46,46 @@ def mean_cue(cue: np.ndarray) -> float:
     return float(cue.mean(dtype=np.float64))
 
 
-def ratio_near_source(positions: np.ndarray, centre: tuple[float, float],
-                      radius: float) -> float:
-    """The fraction of robots within ``radius`` of ``centre`` (nan with no robots)."""
+def nearest(points: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each point [P, 2]: the index of its nearest source [S, 2] and the distance (m)."""
+    distance = np.hypot(points[:, 0, None] - sources[None, :, 0],
+                        points[:, 1, None] - sources[None, :, 1])
+    which = distance.argmin(axis=1)
+    return which, distance[np.arange(len(points)), which]
+
+
+def ratio_near_source(positions: np.ndarray, sources: np.ndarray, radius: float) -> float:
+    """The fraction of robots within ``radius`` of their nearest source (nan with no robots).
+
+    ``sources`` is [S, 2] (or one (x, y) pair)."""
     if len(positions) == 0:
         return float('nan')
-    distance = np.hypot(positions[:, 0] - centre[0], positions[:, 1] - centre[1])
+    _, distance = nearest(positions, np.asarray(sources, dtype=np.float64).reshape(-1, 2))
     return float(np.count_nonzero(distance <= radius) / len(positions))
+
+
+def source_columns(cue: np.ndarray, cell_size: float, initial_mean: float,
+                   positions: np.ndarray, sources: np.ndarray, names: tuple[str, ...],
+                   radius: float) -> dict[str, float]:
+    """The per-source columns (:data:`SOURCE_COLUMNS`) of one sample: each source's region is
+    the cells nearer to it than to any other source, where the sources are now."""
+    rows, cols = cue.shape
+    centres = (np.arange(max(rows, cols)) + 0.5) * cell_size
+    cells = np.stack(np.meshgrid(centres[:cols], centres[:rows]), axis=-1).reshape(-1, 2)
+    region, _ = nearest(cells, sources)
+    totals = np.bincount(region, weights=cue.reshape(-1).astype(np.float64),
+                         minlength=len(names))
+    scale = cue.size * initial_mean
+    robot, distance = nearest(positions, sources) if len(positions) else ([], [])
+    near = np.bincount(np.asarray(robot)[np.asarray(distance) <= radius].astype(np.int64),
+                       minlength=len(names)) if len(positions) else np.zeros(len(names))
+    out = {}
+    for k, name in enumerate(names):
+        out[SOURCE_COLUMNS[0].format(name)] = (float(totals[k] / scale) if scale > 0
+                                               else float('nan'))
+        out[SOURCE_COLUMNS[1].format(name)] = (float(near[k] / len(positions))
+                                               if len(positions) else float('nan'))
+    return out
 
 
 def coherency(positions: np.ndarray) -> float:
@@ -84,13 +121,27 @@ def _row_distance_sums(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # pragma: n
 
 
 def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray,
-           centre: tuple[float, float], params: MetricsParams) -> dict[str, float]:
-    """One metrics row (the columns of :data:`COLUMNS`)."""
+           sources: np.ndarray, params: MetricsParams, names: tuple[str, ...] = (),
+           cell_size: float = 0.0) -> dict[str, float]:
+    """One metrics row: the columns of :data:`COLUMNS`, then with more than one source in
+    ``names`` (and their places ``sources`` [S, 2] now) its :data:`SOURCE_COLUMNS`."""
     level = mean_cue(cue)
-    return {
+    sources = np.asarray(sources, dtype=np.float64).reshape(-1, 2)
+    row = {
         't': t,
         'mean_cue': level,
         'mean_cue_fraction': level / initial_mean if initial_mean > 0 else float('nan'),
-        'ratio_near_source': ratio_near_source(positions, centre, params.source_radius),
+        'ratio_near_source': ratio_near_source(positions, sources, params.source_radius),
         'coherency': coherency(positions),
     }
+    if len(names) > 1:
+        row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
+                                  params.source_radius))
+    return row
+
+
+def columns(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The metrics.csv columns of an episode whose sources are ``names``."""
+    if len(names) < 2:
+        return COLUMNS
+    return COLUMNS + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)

@@ -7,7 +7,7 @@ the robots as stamped discs, the curves revealed up to the frame's time) and onl
 is drawn per frame (Pillow). A 4000 s episode of 50 robots at 100x (1000 frames) renders in
 16-17 s on a busy 2-core machine (11 s of CPU).
 
-The cue of a frame is rebuilt from the cleaning record (:func:`swarm_world.world.clean_under`,
+The cue of a frame is rebuilt from the cleaning record (:class:`swarm_world.field.CueField`,
 as the analysis does), so the map is exact at every frame, whatever the recorded cue map
 period; the robots are shown at the latest recorded pose (the metric sample times).
 """
@@ -34,8 +34,7 @@ from mona_controller.controller import STATE_NAMES, WAIT
 from swarm_metrics.analysis import AnnouncementError, EpisodeSetup
 from swarm_metrics.bag_reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
 from swarm_metrics.world_cdr import STATE_COLOURS, states_from_cdr
-from swarm_world import cue as cue_field
-from swarm_world.world import clean_under
+from swarm_world.field import CueField
 
 ROBOT_STATES = '/world/robot_states'  # swarm_supervisor.record.ROBOT_STATES (no import cycle)
 #: The three metrics of the paper, as plotted: (metric, axis label).
@@ -167,10 +166,9 @@ class Renderer:
         self.scale = self.width / 1024  # layout and fonts are designed at 1024 px
         self._layout()
         self.lut = (colormaps['viridis'](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
-        # The cue, rebuilt from the initial disc by the cleaning record as time goes on.
-        self.cue = cue_field.disc_cue(setup.world)
-        self.kernel = cue_field.cleaning_kernel(setup.world.cleaning_radius,
-                                                setup.world.cleaning_peak)
+        # The cue, rebuilt from the episode's field by the cleaning record as time goes on.
+        self.field = CueField(setup.world, setup.mona)
+        self.cue = self.field.cue
         self._next_event = 0
         self._time_ns = -1
         rows, cols = self.cue.shape
@@ -259,10 +257,13 @@ class Renderer:
             raise ValueError('frames must be rendered in time order')
         setup, events = self.record.setup, self.record.cleaning
         while self._next_event < len(events) and events[self._next_event][0] <= t_ns:
-            clean_under(self.cue, events[self._next_event][1], setup.world, setup.mona,
-                        self.kernel)
+            stamp, poses = events[self._next_event]
+            self.field.advance_to(stamp - setup.world.step_ns)  # as the world steps
+            self.field.clean(poses)
             self._next_event += 1
+        self.field.advance_to(t_ns)
         self._time_ns = t_ns
+        self.cue = self.field.cue
         return self.cue
 
     def map_pixels(self, cue: np.ndarray) -> np.ndarray:

@@ -204,7 +204,8 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
 def write_ros_yaml(config: SwarmConfig, path: str | Path) -> None:
     """Write a config as a ROS 2 parameter file that :func:`load_config` reads back."""
     parameters = config.to_dict()
-    if not parameters['study']['factors']:  # rcl's YAML parser misreads an empty mapping
-        del parameters['study']['factors']
+    for section in parameters.values():  # rcl's YAML parser misreads an empty mapping
+        for key in [k for k, v in section.items() if v == {}]:
+            del section[key]
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}},
                                          sort_keys=False))

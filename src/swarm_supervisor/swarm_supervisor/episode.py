@@ -153,4 +153,5 @@ class Episode:
         world = self.world
         t = world.time_ns // self.sample_ns * self.config.metrics.sample_period
         return sample(t, world.cue, world.initial_mean_cue, world.poses[:, :2],
-                      self.config.world.centre, self.config.metrics)
+                      world.field.source_positions(t), self.config.metrics, world.field.names,
+                      self.config.world.cell_size)

@@ -1,4 +1,6 @@
-"""The cue (contamination) raster: building the paper's disc and cleaning it (eq. 3).
+"""The cue (contamination) raster: cleaning it (eq. 3) and what the ground sensors read.
+
+The initial field and its sources are :mod:`swarm_world.field` and :mod:`swarm_world.sources`.
 
 The raster is float32 [rows, cols] with row = y cell and col = x cell, so cell (0, 0) is the
 corner at the world origin (as in nav_msgs/OccupancyGrid).
@@ -8,20 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarm_world.params import WorldParams
-
-
-def disc_cue(params: WorldParams) -> np.ndarray:
-    """The initial cue: peak at the arena centre, falling linearly to 0 at the disc's rim."""
-    n = params.cells
-    centres = (np.arange(n) + 0.5) * params.cell_size
-    cx, cy = params.centre
-    distance = np.hypot(centres[None, :] - cx, centres[:, None] - cy)
-    radius = params.cue_diameter / 2
-    if radius == 0:
-        return np.zeros((n, n), dtype=np.float32)
-    values = params.cue_peak * np.clip(1.0 - distance / radius, 0.0, None)
-    return values.astype(np.float32)
 
 
 def cleaning_kernel(radius: int, peak: float) -> np.ndarray:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from mona_controller.schema import ParameterError, param, validate
+from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal')
 
@@ -35,15 +36,102 @@ class WorldParams:
                                      'loses peak - sqrt(p^2 + q^2)')
     collision_slop: float = param(0.0005, unit='m', low=0.0, high=0.01,
                                   doc='allowed overlap of colliding bodies in pymunk')
+    # Beyond the paper (docs/model.md "Leaks beyond the paper"); every default is the paper.
+    sources: tuple = param((), keyed=True,
+                           doc='leak sources, name -> [x m, y m, radius m, peak cue units]; '
+                               "none: the paper's one disc ('source': the arena centre, "
+                               'cue_diameter, cue_peak)')
+    source_profile: tuple = param((), keyed=True,
+                                  doc="name -> ['linear' | 'gaussian'] (default linear; "
+                                      'gaussian: sigma = radius / 3, 0 beyond the radius)')
+    source_emission: tuple = param((), keyed=True,
+                                   doc='name -> [cue units/s]: a leaking source restores its '
+                                       'profile at this rate (at its peak), never above it')
+    source_velocity: tuple = param((), keyed=True,
+                                   doc='name -> [vx m/s, vy m/s]: moves at constant velocity, '
+                                       'reflecting at the walls')
+    source_path: tuple = param((), keyed=True,
+                               doc='name -> [speed m/s, x1, y1, x2, y2, ...]: moves along the '
+                                   'closed loop from its position through these waypoints (m)')
+    cue_file: str = param('', doc="initial cue from a .npy array (cue units, row = y) or an "
+                                  "image (grey level, top = +y), scaled to the arena; '' = "
+                                  "the sources' profiles")
+    diffusion: float = param(0.0, unit='m^2/s', low=0.0, high=1.0,
+                             doc='diffusion coefficient of the cue (0: none)')
+    half_life: float = param(0.0, unit='s', low=0.0, high=1e9,
+                             doc='evaporation half-life of the cue (0: does not evaporate)')
+    transport_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
+                                    doc='how often diffusion, evaporation and emission update '
+                                        'the cue (sim time)')
 
     def __post_init__(self) -> None:
         validate(self, 'world.')
+        self.source_list()  # names, lengths and places checked at start-up
         if self.cue_diameter > self.arena_side * 1.4143:
             raise ParameterError(f'world.cue_diameter = {self.cue_diameter} exceeds the arena '
                                  f'diagonal ({self.arena_side} m side)')
         if round(self.arena_side / self.cell_size) < 2:
             raise ParameterError(f'world.cell_size = {self.cell_size} leaves fewer than 2 cells '
                                  f'across the arena')
+
+    def source_list(self) -> list[Source]:
+        """The leak sources, the paper's disc when ``sources`` is empty.
+
+        Raises:
+            ParameterError: a bad name, a wrong number of values, a source outside the arena,
+                or an option naming a source that does not exist.
+        """
+        given = dict(self.sources) or {PAPER_SOURCE: (*self.centre, self.cue_diameter / 2,
+                                                      self.cue_peak)}
+        options = {'source_profile': (dict(self.source_profile), 1),
+                   'source_emission': (dict(self.source_emission), 1),
+                   'source_velocity': (dict(self.source_velocity), 2),
+                   'source_path': (dict(self.source_path), None)}
+        for key, (mapping, _) in options.items():
+            for name in mapping:
+                if name not in given:
+                    raise ParameterError(f'world.{key}.{name}: no source named {name!r} '
+                                         f'(sources: {", ".join(given)})')
+        result = []
+        for name, values in given.items():
+            where = f'world.sources.{name}'
+            if not NAME_PATTERN.match(name):
+                raise ParameterError(f'{where}: a source name must be a lower-case identifier')
+            x, y, radius, peak = _numbers(where, values, 4)
+            if not (0 <= x <= self.arena_side and 0 <= y <= self.arena_side):
+                raise ParameterError(f'{where}: position ({x}, {y}) is outside the '
+                                     f'{self.arena_side} m arena')
+            if radius < 0 or not 0 <= peak <= 255:
+                raise ParameterError(f'{where}: radius must be >= 0 m and peak in 0..255 '
+                                     f'cue units (got {radius}, {peak})')
+            profile = options['source_profile'][0].get(name, ('linear',))
+            if len(profile) != 1 or profile[0] not in PROFILES:
+                raise ParameterError(f'world.source_profile.{name} = {list(profile)}: expected '
+                                     f'[{" | ".join(PROFILES)}]')
+            (emission,) = _numbers(f'world.source_emission.{name}',
+                                   options['source_emission'][0].get(name, (0.0,)), 1)
+            velocity = _numbers(f'world.source_velocity.{name}',
+                                options['source_velocity'][0].get(name, (0.0, 0.0)), 2)
+            path = _numbers(f'world.source_path.{name}',
+                            options['source_path'][0].get(name, (0.0,)), None)
+            if emission < 0 or path[0] < 0 or len(path) % 2 == 0:
+                raise ParameterError(f'{where}: emission and path speed must be >= 0 and a '
+                                     'path is [speed, x1, y1, ...]')
+            points = tuple(zip(path[1::2], path[2::2]))
+            if any(not (0 <= px <= self.arena_side and 0 <= py <= self.arena_side)
+                   for px, py in points):
+                raise ParameterError(f'world.source_path.{name}: a waypoint lies outside the '
+                                     f'{self.arena_side} m arena')
+            result.append(Source(name, x, y, radius, peak, profile[0], emission,
+                                 tuple(velocity), path[0], points))
+        return result
+
+    @property
+    def paper_field(self) -> bool:
+        """Whether the cue is the paper's: one still disc, no file, no transport."""
+        return not (self.sources or self.source_emission or self.source_velocity
+                    or self.source_path or self.source_profile or self.cue_file
+                    or self.diffusion or self.half_life)
 
     @property
     def step_ns(self) -> int:
@@ -59,6 +147,14 @@ class WorldParams:
     def centre(self) -> tuple[float, float]:
         """The arena centre, which is the cue (and source) centre (m)."""
         return (self.arena_side / 2, self.arena_side / 2)
+
+
+def _numbers(where: str, values: tuple, count: int | None) -> tuple[float, ...]:
+    """``values`` as floats, ``count`` of them (any number if None)."""
+    if (count is not None and len(values) != count) or any(
+            isinstance(v, (bool, str)) for v in values):
+        raise ParameterError(f'{where} = {list(values)}: expected {count or "some"} numbers')
+    return tuple(float(v) for v in values)
 
 
 @dataclasses.dataclass(frozen=True)

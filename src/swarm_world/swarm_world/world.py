@@ -15,6 +15,7 @@ from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import noise
 from swarm_world.params import WorldParams
+from swarm_world.field import CueField
 from swarm_world.physics import Physics
 from swarm_world.sensors import ground_readings, proximity
 from swarm_world.timing import crossed
@@ -42,10 +43,7 @@ class World:
         self.params = params
         self.mona = mona
         self.bearings = mona.ir_bearings()
-        self.initial_cue = cue_field.disc_cue(params)
-        self.initial_mean_cue = float(self.initial_cue.mean(dtype=np.float64))
-        self.kernel = cue_field.cleaning_kernel(params.cleaning_radius, params.cleaning_peak)
-        self.cue = self.initial_cue.copy()
+        self.field = CueField(params, mona)
         self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
         self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
         self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
@@ -56,6 +54,21 @@ class World:
         self.steps = 0
         self.cleaning = np.zeros(0, dtype=bool)
         self.cleaned = np.zeros(0, dtype=np.int64)  # robots that cleaned in the last step
+
+    @property
+    def cue(self) -> np.ndarray:
+        """The cue raster now (float32 [rows, cols], row = y cell)."""
+        return self.field.cue
+
+    @property
+    def initial_cue(self) -> np.ndarray:
+        """The cue at t = 0 (read-only)."""
+        return self.field.initial
+
+    @property
+    def initial_mean_cue(self) -> float:
+        """The arena mean of the initial cue (cue units)."""
+        return self.field.initial_mean
 
     @property
     def population(self) -> int:
@@ -77,7 +90,7 @@ class World:
         the sensor and wheel noise (if any) derive from ``seed``."""
         poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         self.seed = int(seed)
-        self.cue = self.initial_cue.copy()
+        self.field.reset()
         self._sensed = None
         self.physics = self._physics(poses)
         self.time_ns = 0
@@ -138,28 +151,7 @@ class World:
         self.cleaned = np.zeros(0, dtype=np.int64)
         if crossed(before, self.time_ns, period_ns) and self.cleaning.any():
             self.cleaned = np.flatnonzero(self.cleaning)
-            self._clean(self.cleaned)
-
-    def _clean(self, robots: np.ndarray) -> None:
-        """Eq. 3 under each cleaning robot, in robot order."""
-        clean_under(self.cue, self.poses[robots], self.params, self.mona, self.kernel)
-        self._sensed = None
-
-
-def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: MonaParams,
-                kernel: np.ndarray) -> None:
-    """One cleaning tick, in place: eq. 3 under each robot at ``poses`` [M, 3], in order.
-
-    The world calls it with its own poses; bag analysis and the metrics node call it with the
-    poses of a /world/cleaning message, so every replica of the cue is cleaned alike.
-    """
-    if not len(poses):
-        return
-    cells = cue_field.cell_index(poses[:, :2], params.cell_size, params.cells)
-    levels = None
-    if params.cleaning == 'literal':
-        sensed = cue_field.sensed_field(
-            cue, cue_field.footprint_cells(mona.ground_footprint, params.cell_size))
-        ground = ground_readings(sensed, params.cell_size, poses, mona.wheel_separation)
-        levels = ground.astype(np.float64).mean(axis=1)
-    cue_field.clean(cue, cells, kernel, literal_levels=levels)
+            self.field.clean(self.poses[self.cleaned])  # eq. 3, in robot order
+            self._sensed = None
+        if self.field.advance_to(self.time_ns):  # diffusion, evaporation, emission
+            self._sensed = None

@@ -1,0 +1,127 @@
+"""Leak sources: where the cue comes from, how each is shaped, and how it moves in sim time.
+
+The paper has one source, a linear disc at the arena centre (``world.cue_diameter``,
+``world.cue_peak``). ``world.sources`` names any number of them instead, each with a position,
+radius, peak and profile; optionally each moves (constant velocity, reflecting at the walls,
+or a closed waypoint path) and leaks (:mod:`swarm_world.transport` restores its profile).
+A source's position is a pure function of sim time, so every runner, the metrics node and bag
+analysis put it in the same place.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+PROFILES = ('linear', 'gaussian')
+#: A Gaussian source has sigma = radius / GAUSSIAN_SIGMAS and is cut to 0 beyond its radius.
+GAUSSIAN_SIGMAS = 3.0
+#: Source names become metrics columns and topic names: lower-case identifiers.
+NAME_PATTERN = re.compile(r'^[a-z][a-z0-9_]*$')
+#: The name of the paper's single source when ``world.sources`` is empty.
+PAPER_SOURCE = 'source'
+
+
+@dataclasses.dataclass(frozen=True)
+class Source:
+    """One leak source (SI units, world frame)."""
+
+    name: str
+    x: float  #: m, position at t = 0
+    y: float  #: m
+    radius: float  #: m, where the profile reaches 0
+    peak: float  #: cue units at the centre
+    profile: str = 'linear'  #: 'linear' (the paper's disc) or 'gaussian'
+    emission: float = 0.0  #: cue units per second restored at the peak (0: does not leak)
+    velocity: tuple[float, float] = (0.0, 0.0)  #: m/s, reflecting at the walls
+    path_speed: float = 0.0  #: m/s along ``path`` (a closed loop from (x, y))
+    path: tuple[tuple[float, float], ...] = ()  #: waypoints (m) after the start
+
+    @property
+    def moves(self) -> bool:
+        """Whether the source's position changes with time."""
+        return bool(self.path and self.path_speed) or self.velocity != (0.0, 0.0)
+
+    def position(self, t: float, arena_side: float) -> tuple[float, float]:
+        """Where the source is at sim time ``t`` (s)."""
+        if self.path and self.path_speed:
+            return _along_loop(((self.x, self.y), *self.path), self.path_speed * t)
+        vx, vy = self.velocity
+        return (_reflect(self.x + vx * t, arena_side), _reflect(self.y + vy * t, arena_side))
+
+    def shape(self, distance: np.ndarray) -> np.ndarray:
+        """The profile in [0, 1] at ``distance`` (m) from the centre (float64)."""
+        if self.radius <= 0:
+            return np.zeros_like(distance)
+        if self.profile == 'gaussian':
+            sigma = self.radius / GAUSSIAN_SIGMAS
+            return np.where(distance <= self.radius,
+                            np.exp(-0.5 * np.square(distance / sigma)), 0.0)
+        return np.clip(1.0 - distance / self.radius, 0.0, None)
+
+    def deposit(self, cells: int, cell_size: float, t: float, arena_side: float) -> np.ndarray:
+        """The source's profile on the raster (float64 cue units) at time ``t``."""
+        cx, cy = self.position(t, arena_side)
+        centres = (np.arange(cells) + 0.5) * cell_size
+        distance = np.hypot(centres[None, :] - cx, centres[:, None] - cy)
+        return self.peak * self.shape(distance)
+
+
+def _reflect(coordinate: float, side: float) -> float:
+    """A coordinate moving freely, folded back into [0, side] as if it bounced off walls."""
+    period = 2.0 * side
+    folded = math.fmod(coordinate, period)
+    if folded < 0:
+        folded += period
+    return folded if folded <= side else period - folded
+
+
+def _along_loop(points: tuple[tuple[float, float], ...], distance: float) -> tuple[float, float]:
+    """The point ``distance`` (m) along the closed polyline through ``points``."""
+    legs = [(a, b, math.dist(a, b)) for a, b in zip(points, points[1:] + points[:1])]
+    perimeter = sum(length for _, _, length in legs)
+    if perimeter == 0:
+        return points[0]
+    remaining = math.fmod(distance, perimeter)
+    for (ax, ay), (bx, by), length in legs:
+        if remaining <= length and length > 0:
+            f = remaining / length
+            return (ax + f * (bx - ax), ay + f * (by - ay))
+        remaining -= length
+    return points[0]
+
+
+def load_cue_file(path: str, cells: int) -> np.ndarray:
+    """A measured contamination map as the initial cue: float32 [cells, cells], 0..255.
+
+    ``.npy``: a 2-D array in cue units with row = y cell (row 0 at y = 0, as the raster).
+    An image (PNG, JPEG, ...): its grey level 0..255 is the cue, top row at the far (+y)
+    wall, so the picture looks as it does on screen. Either is resampled to the raster by
+    nearest cell, so it covers the whole arena.
+
+    Raises:
+        ValueError: the file is missing, not 2-D, or holds values outside 0..255.
+    """
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f'world.cue_file = {path!r}: no such file')
+    if file.suffix == '.npy':
+        values = np.load(file, allow_pickle=False)
+    else:
+        from PIL import Image  # only for image files; pillow comes with matplotlib
+        with Image.open(file) as image:
+            values = np.asarray(image.convert('L'), dtype=np.float64)[::-1]
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim != 2 or min(values.shape) == 0:
+        raise ValueError(f'world.cue_file = {path!r}: expected a 2-D map, got shape '
+                         f'{values.shape}')
+    if not np.all(np.isfinite(values)) or values.min() < 0 or values.max() > 255:
+        raise ValueError(f'world.cue_file = {path!r}: values must lie in 0..255 (found '
+                         f'{values.min():g}..{values.max():g})')
+    rows = np.minimum((np.arange(cells) + 0.5) * values.shape[0] / cells, values.shape[0] - 1)
+    cols = np.minimum((np.arange(cells) + 0.5) * values.shape[1] / cells, values.shape[1] - 1)
+    return values[rows.astype(np.int64)][:, cols.astype(np.int64)].astype(np.float32)
