@@ -64,9 +64,11 @@ def waiting_time(cue: np.ndarray | float, params: ControllerParams) -> np.ndarra
     return params.wait_max * squared / (squared + params.wait_half_constant)
 
 
-def gradient_wheels(ground: np.ndarray, beta: float, alpha: float,
-                    max_command: float) -> np.ndarray:
+def gradient_wheels(ground: np.ndarray, beta: float | np.ndarray, alpha: float | np.ndarray,
+                    max_command: float | np.ndarray) -> np.ndarray:
     """Eq. 2: wheel commands [N, 2] (left, right) from ground readings [N, 2] (left, right).
+
+    The parameters are scalars or per robot (``beta``, ``alpha`` [N], ``max_command`` [N, 1]).
 
     N_r = (s_l - s_r) / alpha + beta and N_l = (s_r - s_l) / alpha + beta, clamped to
     [0, max_command]: the wheel on the weaker side runs faster, so the robot turns toward the
@@ -88,7 +90,13 @@ class Command:
 
 
 class SwarmController:
-    """The controllers of the robots ``robot_ids``; readings and sim time in, commands out."""
+    """The controllers of the robots ``robot_ids``; readings and sim time in, commands out.
+
+    Every parameter is also held per robot (arrays of the robots' length), so that
+    :meth:`merge` can join the controllers of several episodes, with different parameters,
+    into one that steps all their robots at once (the batched engine); each robot computes
+    exactly what it computes alone.
+    """
 
     def __init__(self, params: ControllerParams, mona: MonaParams,
                  robot_ids: Sequence[int]) -> None:
@@ -111,8 +119,47 @@ class SwarmController:
         self.until = np.zeros(n)  # end time (s) of the current wait or turn
         self.turn_direction = np.ones(n)  # +1 counter-clockwise, -1 clockwise
         self.encounters = np.zeros(n, dtype=np.int64)
+        # Per robot: (beta, alpha, max wheel command, wait_max, wait_half_constant, turn_min,
+        # turn_max, turn_command, turn_rate), one row per parameter.
+        self._per_robot = np.repeat(np.array([[
+            self.beta, params.alpha, mona.max_wheel_command, params.wait_max,
+            params.wait_half_constant, params.turn_min, params.turn_max, self.turn_command,
+            self.turn_rate]]).T, n, axis=1)
+        # Robots [start, stop) share IR bearings and the wall behaviour: (start, stop,
+        # bearings, random_turn). One span alone; one per episode in a merged controller.
+        self._spans = [(0, n, self.bearings, params.avoid == 'random-turn')]
         self.rngs: list[np.random.Generator] = []
         self.reset(0)
+
+    @classmethod
+    def merge(cls, controllers: Sequence[SwarmController]) -> SwarmController:
+        """One controller stepping the robots of all ``controllers``, in order.
+
+        The parts take over: their generators are shared, and their state arrays become
+        views of the merged ones, so each part still shows its robots' state, and a part can
+        be merged again (into another batch) once this one is no longer stepped. Its
+        :meth:`step` takes ``now`` per robot (each part's own time).
+        """
+        merged = cls.__new__(cls)
+        merged.params = None  # per robot: no single set of parameters
+        merged.mona = None
+        merged.robot_ids = np.concatenate([c.robot_ids for c in controllers])
+        merged.rngs = [rng for c in controllers for rng in c.rngs]
+        merged._per_robot = np.concatenate([c._per_robot for c in controllers], axis=1)
+        merged._spans, start = [], 0
+        for part in controllers:
+            for first, stop, bearings, random_turn in part._spans:
+                merged._spans.append((start + first, start + stop, bearings, random_turn))
+            start += len(part.robot_ids)
+        for name in ('state', 'until', 'turn_direction', 'encounters'):
+            joined = np.concatenate([getattr(c, name) for c in controllers])
+            setattr(merged, name, joined)
+            start = 0
+            for part in controllers:  # the parts see (and keep) their slice of the whole
+                stop = start + len(part.robot_ids)
+                setattr(part, name, joined[start:stop])
+                start = stop
+        return merged
 
     def reset(self, seed: int) -> None:
         """Start a new episode: every robot following the gradient, generators reseeded."""
@@ -125,23 +172,24 @@ class SwarmController:
 
     def _start_turn(self, i: int, now: float) -> None:
         """Robot ``i`` turns in place by U[turn_min, turn_max] in a random direction, blind."""
-        rng = self.rngs[i]
-        angle = rng.uniform(self.params.turn_min, self.params.turn_max)
+        rng, per_robot = self.rngs[i], self._per_robot
+        angle = rng.uniform(per_robot[_TURN_MIN, i], per_robot[_TURN_MAX, i])
         self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
         self.state[i] = TURN
-        self.until[i] = now + angle / self.turn_rate
+        self.until[i] = now + angle / per_robot[_TURN_RATE, i]
 
     def step(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
-             now: float) -> Command:
+             now: float | np.ndarray) -> Command:
         """Advance every robot's behaviour and answer its wheel and cleaner commands.
 
         Args:
             ground: [N, 2] uint8 ground readings (left, right), 0..255.
             ranges: [N, K] IR ranges from the body edge (m); inf where nothing is seen.
             is_robot: [N, K] True where the obstacle seen is a robot.
-            now: sim time of the readings (s).
+            now: sim time of the readings (s); or [N], each robot's (a merged controller).
         """
-        state, until = self.state, self.until
+        state, until, per_robot = self.state, self.until, self._per_robot
+        each = np.ndim(now) > 0
         seen = ranges < np.inf
         robot_beams = seen & is_robot
         robot_seen = robot_beams.any(axis=1)
@@ -154,7 +202,7 @@ class SwarmController:
                 if state[i] == TURN:
                     state[i] = FOLLOW
                     continue
-                self._start_turn(i, now)
+                self._start_turn(i, now[i] if each else now)
         state[(state == AVOID) & ~wall_seen] = FOLLOW
 
         if robot_seen.any():
@@ -162,27 +210,50 @@ class SwarmController:
             if len(meet):
                 cue = ground[meet].astype(np.float64).mean(axis=1)
                 state[meet] = WAIT
-                until[meet] = now + waiting_time(cue, self.params)
+                # Eq. 1 (waiting_time) with each robot's parameters.
+                squared = np.square(cue, dtype=np.float64)
+                wait = (per_robot[_WAIT_MAX, meet] * squared
+                        / (squared + per_robot[_WAIT_HALF, meet]))
+                until[meet] = (now[meet] if each else now) + wait
                 self.encounters[meet] += 1
 
         if wall_seen.any():
             start_avoid = np.flatnonzero(wall_seen & (state == FOLLOW))
-            if len(start_avoid) and self.params.avoid == 'random-turn':
-                for i in start_avoid:
-                    self._start_turn(i, now)
-            elif len(start_avoid):
-                # Turn away from the side the wall is on (bearings > 0 are on the left).
-                side = wall_beams[start_avoid] @ self.bearings
-                self.turn_direction[start_avoid] = np.where(side > 0, -1.0, 1.0)
-                state[start_avoid] = AVOID
+            if len(start_avoid):
+                self._start_avoiding(start_avoid, wall_beams, now, each)
 
-        wheels = gradient_wheels(ground, self.beta, self.params.alpha,
-                                 self.mona.max_wheel_command)
+        wheels = gradient_wheels(ground, per_robot[_BETA], per_robot[_ALPHA],
+                                 per_robot[_MAX_COMMAND, :, None])
         cleaner = state == WAIT
         if state.any():  # anyone not following the gradient
             turning = (state == TURN) | (state == AVOID)
-            spin = self.turn_direction[turning] * self.turn_command
+            spin = self.turn_direction[turning] * per_robot[_TURN_COMMAND, turning]
             wheels[turning, 0] = -spin
             wheels[turning, 1] = spin
             wheels[cleaner] = 0.0
         return Command(wheels=wheels, cleaner=cleaner)
+
+    def _start_avoiding(self, start_avoid: np.ndarray, wall_beams: np.ndarray,
+                        now: float | np.ndarray, each: bool) -> None:
+        """The robots ``start_avoid`` (following, a wall seen) start avoiding it."""
+        for first, stop, bearings, random_turn in self._spans:
+            if len(self._spans) > 1:  # only this span's robots (one span: all of them)
+                robots = start_avoid[(start_avoid >= first) & (start_avoid < stop)]
+                if not len(robots):
+                    continue
+            else:
+                robots = start_avoid
+            if random_turn:
+                for i in robots:
+                    self._start_turn(i, now[i] if each else now)
+            else:
+                # Turn away from the side the wall is on (bearings > 0 are on the left). The
+                # product is taken over one span's rows, as the episode alone takes it.
+                side = wall_beams[robots] @ bearings
+                self.turn_direction[robots] = np.where(side > 0, -1.0, 1.0)
+                self.state[robots] = AVOID
+
+
+# Rows of SwarmController._per_robot.
+(_BETA, _ALPHA, _MAX_COMMAND, _WAIT_MAX, _WAIT_HALF, _TURN_MIN, _TURN_MAX, _TURN_COMMAND,
+ _TURN_RATE) = range(9)

@@ -67,6 +67,37 @@ class EpisodeResult:
         return self.steps * self.config.world.step_period / max(self.wall_time, 1e-9)
 
 
+class _Collector:
+    """One episode's metrics rows and snapshots as it runs (the lone and the batched runner
+    record an episode alike)."""
+
+    def __init__(self, episode: Episode, snapshot_times: Sequence[float],
+                 progress: Callable[[float], None] | None) -> None:
+        self.episode = episode
+        self.pending = sorted(snapshot_times)
+        self.snapshots: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self.rows: list[dict[str, float]] = []
+        self.progress = progress
+
+    def record(self) -> None:
+        """A metrics row now, and the snapshots due by its time."""
+        world = self.episode.world
+        self.rows.append(self.episode.metrics())
+        t = self.rows[-1]['t']
+        while self.pending and self.pending[0] <= t + 1e-9:
+            self.snapshots[self.pending.pop(0)] = (world.cue.copy(), world.poses.copy())
+        if self.progress is not None:
+            self.progress(t)
+
+    def result(self, wall_time: float) -> EpisodeResult:
+        episode, world = self.episode, self.episode.world
+        return EpisodeResult(
+            config=episode.config, metrics=self.rows, initial_poses=episode.initial_poses,
+            final_poses=world.poses.copy(), final_cue=world.cue.copy(),
+            snapshots=self.snapshots, encounters=int(episode.controllers.encounters.sum()),
+            steps=episode.steps_done, wall_time=wall_time)
+
+
 def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
                 progress: Callable[[float], None] | None = None,
                 observers: Sequence[EpisodeObserver] = ()) -> EpisodeResult:
@@ -80,32 +111,78 @@ def run_episode(config: SwarmConfig, *, snapshot_times: Sequence[float] = (),
     """
     started = time.perf_counter()
     episode = Episode(config)
-    world = episode.world
-    pending = sorted(snapshot_times)
-    snapshots: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-    rows: list[dict[str, float]] = []
-
-    def record() -> None:
-        rows.append(episode.metrics())
-        t = rows[-1]['t']
-        while pending and pending[0] <= t + 1e-9:
-            snapshots[pending.pop(0)] = (world.cue.copy(), world.poses.copy())
-        if progress is not None:
-            progress(t)
-
-    record()
+    collector = _Collector(episode, snapshot_times, progress)
+    collector.record()
     for observer in observers:
         observer.start(episode)
     while not episode.done:
         step = episode.step()
         if step.sampled:
-            record()
+            collector.record()
         for observer in observers:
             observer.step(episode, step)
     for observer in observers:
         observer.finish(episode)
-    return EpisodeResult(
-        config=config, metrics=rows, initial_poses=episode.initial_poses,
-        final_poses=world.poses.copy(), final_cue=world.cue.copy(), snapshots=snapshots,
-        encounters=int(episode.controllers.encounters.sum()), steps=episode.steps_done,
-        wall_time=time.perf_counter() - started)
+    return collector.result(time.perf_counter() - started)
+
+
+def run_batch(configs: Sequence[SwarmConfig], *, snapshot_times: Sequence[float] = (),
+              progress: Callable[[int, float], None] | None = None,
+              observers: Sequence[Sequence[EpisodeObserver]] | None = None,
+              finished: Callable[[int, EpisodeResult], None] | None = None
+              ) -> list[EpisodeResult]:
+    """Run the episodes of ``configs`` together (:class:`~swarm_supervisor.batch.Batch`);
+    each result equals :func:`run_episode`'s for that config, except the timing.
+
+    Args:
+        configs: one per episode; they must share :func:`~swarm_supervisor.batch.batch_key`.
+        snapshot_times: as :func:`run_episode`, for every episode.
+        progress: called with (episode index, sim time) after each of its metrics samples.
+        observers: per episode (same length as ``configs``), as :func:`run_episode`'s.
+        finished: called with (episode index, result) as soon as that episode is done (its
+            observers finished), e.g. to write its outputs before the others end.
+
+    Returns:
+        The results in the order of ``configs``. An episode's ``wall_time`` is its share of
+        the batch's: the wall time until it finished divided by the batch's size (so its
+        ``real_time_factor`` is the per-episode factor of the batch).
+
+    Raises:
+        BatchError: the configs differ in step period or IR beams.
+    """
+    from swarm_supervisor.batch import Batch  # batch imports this module's neighbours
+
+    started = time.perf_counter()
+    observers = observers if observers is not None else [()] * len(configs)
+    episodes = [Episode(config) for config in configs]
+    index = {id(episode): k for k, episode in enumerate(episodes)}
+    collectors = [_Collector(episode, snapshot_times,
+                             None if progress is None else
+                             (lambda t, k=k: progress(k, t)))
+                  for k, episode in enumerate(episodes)]
+    results: list[EpisodeResult | None] = [None] * len(configs)
+
+    def finish(k: int) -> None:
+        for observer in observers[k]:
+            observer.finish(episodes[k])
+        results[k] = collectors[k].result((time.perf_counter() - started) / len(configs))
+        if finished is not None:
+            finished(k, results[k])
+
+    batch = Batch(episodes)
+    for k, episode in enumerate(episodes):
+        collectors[k].record()
+        for observer in observers[k]:
+            observer.start(episode)
+        if episode.done:  # zero steps
+            finish(k)
+    while not batch.done:
+        for episode, step in batch.step():
+            k = index[id(episode)]
+            if step.sampled:
+                collectors[k].record()
+            for observer in observers[k]:
+                observer.step(episode, step)
+            if episode.done:
+                finish(k)
+    return results
