@@ -64,21 +64,38 @@ def ratio_near_source(positions: np.ndarray, sources: np.ndarray, radius: float)
     return float(np.count_nonzero(distance <= radius) / len(positions))
 
 
+@numba.njit(cache=True)
+def region_totals(cue: np.ndarray, cell_size: float, sx: np.ndarray,
+                  sy: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
+    """The cue summed (float64) over each source's region: the cells whose centre is nearer
+    to that source (at ``sx``, ``sy``) than to any other (the first on a tie)."""
+    rows, cols = cue.shape
+    totals = np.zeros(sx.shape[0])
+    for i in range(rows):
+        y = (i + 0.5) * cell_size
+        for j in range(cols):
+            x = (j + 0.5) * cell_size
+            best, which = np.inf, 0
+            for k in range(sx.shape[0]):
+                d = (x - sx[k]) ** 2 + (y - sy[k]) ** 2
+                if d < best:
+                    best, which = d, k
+            totals[which] += cue[i, j]
+    return totals
+
+
 def source_columns(cue: np.ndarray, cell_size: float, initial_mean: float,
                    positions: np.ndarray, sources: np.ndarray, names: tuple[str, ...],
                    radius: float) -> dict[str, float]:
     """The per-source columns (:data:`SOURCE_COLUMNS`) of one sample: each source's region is
     the cells nearer to it than to any other source, where the sources are now."""
-    rows, cols = cue.shape
-    centres = (np.arange(max(rows, cols)) + 0.5) * cell_size
-    cells = np.stack(np.meshgrid(centres[:cols], centres[:rows]), axis=-1).reshape(-1, 2)
-    region, _ = nearest(cells, sources)
-    totals = np.bincount(region, weights=cue.reshape(-1).astype(np.float64),
-                         minlength=len(names))
+    totals = region_totals(cue, cell_size, np.ascontiguousarray(sources[:, 0]),
+                           np.ascontiguousarray(sources[:, 1]))
     scale = cue.size * initial_mean
-    robot, distance = nearest(positions, sources) if len(positions) else ([], [])
-    near = np.bincount(np.asarray(robot)[np.asarray(distance) <= radius].astype(np.int64),
-                       minlength=len(names)) if len(positions) else np.zeros(len(names))
+    near = np.zeros(len(names), dtype=np.int64)
+    if len(positions):
+        robot, distance = nearest(positions, sources)
+        near = np.bincount(robot[distance <= radius], minlength=len(names))
     out = {}
     for k, name in enumerate(names):
         out[SOURCE_COLUMNS[0].format(name)] = (float(totals[k] / scale) if scale > 0

@@ -93,8 +93,9 @@ class CueField:
         t = k * dt
         for source in self.sources:
             if source.emission:
-                profile = source.deposit(params.cells, params.cell_size, t, params.arena_side)
-                transport.emit(cue, profile, source.emission, source.peak, dt)
+                window, profile = source.window(params.cells, params.cell_size, t,
+                                                 params.arena_side)
+                transport.emit(cue[window], profile, source.emission, source.peak, dt)
         self.cue = cue
 
 

@@ -67,7 +67,7 @@ class WorldParams:
     def __post_init__(self) -> None:
         validate(self, 'world.')
         self.source_list()  # names, lengths and places checked at start-up
-        if self.cue_diameter > self.arena_side * 1.4143:
+        if not (self.sources or self.cue_file) and self.cue_diameter > self.arena_side * 1.4143:
             raise ParameterError(f'world.cue_diameter = {self.cue_diameter} exceeds the arena '
                                  f'diagonal ({self.arena_side} m side)')
         if round(self.arena_side / self.cell_size) < 2:

@@ -64,11 +64,26 @@ class Source:
         return np.clip(1.0 - distance / self.radius, 0.0, None)
 
     def deposit(self, cells: int, cell_size: float, t: float, arena_side: float) -> np.ndarray:
-        """The source's profile on the raster (float64 cue units) at time ``t``."""
+        """The source's profile on the whole raster (float64 cue units) at time ``t``."""
+        return self.window(cells, cell_size, t, arena_side, whole=True)[1]
+
+    def window(self, cells: int, cell_size: float, t: float, arena_side: float,
+               whole: bool = False) -> tuple[tuple[slice, slice], np.ndarray]:
+        """The raster window (rows, cols) that covers the source's disc at time ``t`` and its
+        profile there (float64 cue units); the whole raster with ``whole``."""
         cx, cy = self.position(t, arena_side)
-        centres = (np.arange(cells) + 0.5) * cell_size
-        distance = np.hypot(centres[None, :] - cx, centres[:, None] - cy)
-        return self.peak * self.shape(distance)
+        if whole:
+            rows = cols = slice(0, cells)
+        else:
+            reach = self.radius / cell_size + 1
+            rows = slice(max(0, math.floor(cy / cell_size - reach)),
+                         min(cells, math.ceil(cy / cell_size + reach) + 1))
+            cols = slice(max(0, math.floor(cx / cell_size - reach)),
+                         min(cells, math.ceil(cx / cell_size + reach) + 1))
+        ys = (np.arange(rows.start, rows.stop) + 0.5) * cell_size
+        xs = (np.arange(cols.start, cols.stop) + 0.5) * cell_size
+        distance = np.hypot(xs[None, :] - cx, ys[:, None] - cy)
+        return (rows, cols), self.peak * self.shape(distance)
 
 
 def _reflect(coordinate: float, side: float) -> float:

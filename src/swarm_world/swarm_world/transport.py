@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 #: Largest D dt / h^2 of one diffusion substep (stable and positive below 1/4 in 2-D).
@@ -27,26 +28,41 @@ def diffusion_substeps(diffusion: float, dt: float, cell_size: float) -> int:
 def diffuse(cue: np.ndarray, diffusion: float, dt: float, cell_size: float) -> np.ndarray:
     """``cue`` after diffusing for ``dt`` seconds (m^2/s, m); walls let nothing through.
 
-    Computed in float64 and returned in the cue's dtype.
+    Computed in float64 and returned as a new array of the cue's dtype.
     """
     if diffusion <= 0 or dt <= 0:
         return cue
     substeps = diffusion_substeps(diffusion, dt, cell_size)
     number = diffusion * dt / substeps / cell_size**2
     field = cue.astype(np.float64)
-    flux = np.empty_like(field)
-    for _ in range(substeps):
-        # Flux from each cell to its +x neighbour, then to its +y neighbour (all from the
-        # same state: one explicit step).
-        fx = flux[:, :-1]
-        np.subtract(field[:, :-1], field[:, 1:], out=fx)
-        fx *= number
-        fy = np.subtract(field[:-1, :], field[1:, :]) * number
-        field[:, :-1] -= fx
-        field[:, 1:] += fx
-        field[:-1, :] -= fy
-        field[1:, :] += fy
+    _diffuse_substeps(field, np.empty_like(field), number, substeps)
     return field.astype(cue.dtype)
+
+
+@numba.njit(cache=True)
+def _diffuse_substeps(field: np.ndarray, scratch: np.ndarray, number: float,
+                      substeps: int) -> None:  # pragma: no cover - jit
+    """``substeps`` explicit steps in place: each cell gains ``number`` times the difference
+    to each neighbour inside the raster (pairwise fluxes: what one loses the other gains)."""
+    rows, cols = field.shape
+    old, new = field, scratch
+    for _ in range(substeps):
+        for i in range(rows):
+            for j in range(cols):
+                here = old[i, j]
+                flow = 0.0
+                if j > 0:
+                    flow += old[i, j - 1] - here
+                if j < cols - 1:
+                    flow += old[i, j + 1] - here
+                if i > 0:
+                    flow += old[i - 1, j] - here
+                if i < rows - 1:
+                    flow += old[i + 1, j] - here
+                new[i, j] = here + number * flow
+        old, new = new, old
+    if substeps % 2:
+        field[:, :] = old
 
 
 def evaporation_factor(half_life: float, dt: float) -> float:
@@ -55,8 +71,9 @@ def evaporation_factor(half_life: float, dt: float) -> float:
 
 
 def emit(cue: np.ndarray, profile: np.ndarray, rate: float, peak: float, dt: float) -> None:
-    """A leaking source, in place: each cell below ``profile`` (cue units) gains
-    ``rate * dt`` scaled by the profile's shape (profile / peak), never rising above it."""
+    """A leaking source, in place: each cell of ``cue`` below ``profile`` (cue units, the
+    same shape: pass matching windows) gains ``rate * dt`` scaled by the profile's shape
+    (profile / peak), never rising above it."""
     if rate <= 0 or peak <= 0:
         return
     target = profile.astype(cue.dtype)
