@@ -1,10 +1,11 @@
 """The study's episodes on a Dask distributed cluster (``mona-swarm study --scheduler``).
 
-Each episode is one Dask task. A worker runs it into a temporary folder of its own and sends
-back the folder's files as bytes; the client writes them into the study's folder, episode.json
-last, exactly as a local run does. So the workers need no shared filesystem, only the same
+Each batch of episodes (:func:`swarm_supervisor.study.make_batches`) is one Dask task. A
+worker runs it into temporary folders of its own and sends back each folder's files as bytes;
+the client writes them into the study's folder, episode.json last, exactly as a local run
+does. So the workers need no shared filesystem, only the same
 packages (this project installed in the same Python), and the outputs are the same files a
-local run writes. A worker that dies mid-episode loses only that task: the scheduler runs it
+local run writes. A worker that dies mid-batch loses only that task: the scheduler runs it
 again on another worker (Dask gives up on a task only after it has killed
 ``distributed.scheduler.allowed-failures`` workers, 3 by default).
 """
@@ -22,7 +23,7 @@ from typing import Any
 from tqdm import tqdm
 
 from swarm_supervisor import outputs
-from swarm_supervisor.study import StudyError, _run_and_write, show_done
+from swarm_supervisor.study import StudyError, _run_batch_and_write, show_done
 
 #: Seconds to wait for the scheduler to answer before giving up (default).
 CONNECT_TIMEOUT = 30.0
@@ -32,20 +33,25 @@ class ClusterError(StudyError):
     """The scheduler cannot be reached (the command line exits 2 with this message)."""
 
 
-def episode_files(task: tuple[Any, tuple[float, ...], str, bool]
-                  ) -> tuple[str, float, float, dict[str, bytes]]:
-    """Worker side: run one episode into a temporary folder (with the function a local
-    worker runs) and return its files.
+def episode_files(tasks: Sequence[tuple[Any, tuple[float, ...], str, bool]]
+                  ) -> list[tuple[str, float, float, dict[str, bytes]]]:
+    """Worker side: run a batch of episodes into temporary folders (with the function a local
+    worker runs) and return their files.
 
     Returns:
-        (the study's folder for it, wall s, CPU s, relative file path -> bytes).
+        Per episode: (the study's folder for it, wall s, CPU s, relative file path -> bytes).
     """
-    config, times, folder, bag = task
-    with tempfile.TemporaryDirectory(prefix='mona-episode-') as scratch:
-        _, wall, cpu = _run_and_write((config, times, scratch, bag))
-        files = {str(path.relative_to(scratch)): path.read_bytes()
-                 for path in sorted(Path(scratch).rglob('*')) if path.is_file()}
-    return folder, wall, cpu, files
+    with tempfile.TemporaryDirectory(prefix='mona-batch-') as scratch:
+        folders = [str(Path(scratch) / str(k)) for k in range(len(tasks))]
+        ran = _run_batch_and_write([(config, times, folder, bag) for folder, (config, times, _,
+                                                                               bag)
+                                    in zip(folders, tasks)])
+        out = []
+        for task, folder, (_, wall, cpu) in zip(tasks, folders, ran):
+            files = {str(path.relative_to(folder)): path.read_bytes()
+                     for path in sorted(Path(folder).rglob('*')) if path.is_file()}
+            out.append((task[2], wall, cpu, files))
+    return out
 
 
 def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
@@ -62,10 +68,10 @@ def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
     os.replace(temporary, out / outputs.EPISODE_FILE)
 
 
-def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str, bool]], scheduler: str,
-                   progress: bool | None, timeout: float = CONNECT_TIMEOUT
+def run_on_cluster(batches: Sequence[Sequence[tuple[Any, tuple[float, ...], str, bool]]],
+                   scheduler: str, progress: bool | None, timeout: float = CONNECT_TIMEOUT
                    ) -> dict[str, tuple[float, float]]:
-    """Run the tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
+    """Run the batches of tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
 
     Episodes are written as they finish; Ctrl-C or a failed episode cancels the rest (the
     finished ones stay, and the next call resumes from them).
@@ -80,6 +86,7 @@ def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str, bool]], 
         from dask.distributed import Client, as_completed
     except ImportError as error:  # pragma: no cover - dask is a requirement
         raise ClusterError(f'--scheduler needs dask.distributed ({error})') from None
+    pending = [task for batch in batches for task in batch]
     if not pending:
         return {}
     try:
@@ -90,18 +97,20 @@ def run_on_cluster(pending: Sequence[tuple[Any, tuple[float, ...], str, bool]], 
     ran: dict[str, tuple[float, float]] = {}
     futures = []
     try:
-        # Keys name the episode and its study folder, so two studies never share a task.
-        for task in pending:
-            digest = hashlib.sha1(str(Path(task[2]).resolve()).encode()).hexdigest()[:12]
-            futures.append(client.submit(episode_files, task, pure=False,
-                                         key=f'{Path(task[2]).name}-{digest}'))
+        # Keys name the batch's first episode and its study folder, so two studies never
+        # share a task.
+        for batch in batches:
+            first = Path(batch[0][2])
+            digest = hashlib.sha1(str(first.resolve()).encode()).hexdigest()[:12]
+            futures.append(client.submit(episode_files, list(batch), pure=False,
+                                         key=f'{first.name}+{len(batch) - 1}-{digest}'))
         with tqdm(total=len(pending), desc='episodes', unit='episodes', file=sys.stderr,
                   disable=None if progress is None else not progress) as bar:
             for future in as_completed(futures, loop=client.loop):
-                folder, wall, cpu, files = future.result()
-                write_files(folder, files)
-                ran[folder] = wall, cpu
-                show_done(bar, progress, len(ran), len(pending), folder, wall)
+                for folder, wall, cpu, files in future.result():
+                    write_files(folder, files)
+                    ran[folder] = wall, cpu
+                    show_done(bar, progress, len(ran), len(pending), folder, wall)
     finally:
         client.cancel([f for f in futures if not f.done()])
         client.close()

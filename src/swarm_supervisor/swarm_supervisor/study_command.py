@@ -37,6 +37,11 @@ def register(subparsers) -> None:
                              'speeds, the first two seeds, 60 s episodes')
     parser.add_argument('--jobs', type=bounded(int, 1), metavar='J',
                         help='worker processes (default: one per CPU)')
+    parser.add_argument('--batch-size', type=bounded(int, 1), metavar='B',
+                        default=study.DEFAULT_BATCH_SIZE,
+                        help='episodes each worker steps together (default: '
+                             f'{study.DEFAULT_BATCH_SIZE}; 1: one at a time); the outputs are '
+                             'the same for any size')
     parser.add_argument('--bag', action='store_true',
                         help="record each episode's bag (the metrics node's record: analyze, "
                              'replay, animate and Foxglove read it) in its folder')
@@ -84,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
                                'many jobs as its workers run)')
     rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
                            scheduler_timeout=args.scheduler_timeout, bag=args.bag,
-                           videos=args.videos)
+                           videos=args.videos, batch_size=args.batch_size)
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)

@@ -1,0 +1,63 @@
+"""The study in batches: the same files for any batch size, batches that balance the workers,
+and an interrupted batch that keeps its finished episodes."""
+
+import pytest
+
+from swarm_supervisor import outputs, study
+from swarm_supervisor.config import load_config
+
+TINY = {'populations': [3, 6], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3], 'duration': 12.0,
+        'snapshot_times': [0.0, 4.0, 12.0], 'factors': {'mona.ir_miss': [0.0, 0.1]}}
+COMPARED = (outputs.METRICS_FILE, outputs.SNAPSHOTS_FILE, outputs.FINAL_PNG)
+
+
+def episode_bytes(out):
+    return {(folder.name, name): (folder / name).read_bytes()
+            for folder in sorted((out / study.EPISODES_DIR).iterdir()) for name in COMPARED}
+
+
+def test_any_batch_size_writes_the_same_files(tmp_path):
+    config = load_config().replace(study=TINY)
+    runs = {}
+    for size, jobs in ((1, 1), (5, 2), (64, 1)):
+        out = tmp_path / f'b{size}'
+        study.run_study(config, out, jobs=jobs, batch_size=size, progress=False,
+                        start_method='fork')
+        runs[size] = ((out / study.TABLE_FILE).read_bytes(), episode_bytes(out))
+        assert study.read_invocations(out)[-1]['batch_size'] == size
+    assert len(runs[1][1]) == 24 * len(COMPARED)
+    assert runs[5] == runs[1]
+    assert runs[64] == runs[1]
+
+
+def test_batches_are_balanced_and_never_mix_step_periods():
+    config = load_config().replace(study=TINY)
+    tasks = [(study.episode_config(config, spec), (), spec.name, False)
+             for spec in study.design(config)]
+    batches = study.make_batches(tasks, batch_size=5, jobs=2)
+    assert [len(b) for b in batches] == [5, 5, 5, 5, 4]
+    assert sorted(t[2] for b in batches for t in b) == sorted(t[2] for t in tasks)
+    # Few episodes: every worker still gets a batch.
+    assert [len(b) for b in study.make_batches(tasks[:4], batch_size=16, jobs=2)] == [2, 2]
+    slow = load_config().replace(world={'step_period': 0.05}, episode={'population': 3})
+    mixed = study.make_batches(tasks[:3] + [(slow, (), 'slow', False)], batch_size=16, jobs=1)
+    assert sorted(len(b) for b in mixed) == [1, 3]
+
+
+def test_an_interrupted_batch_keeps_its_finished_episodes(tmp_path, monkeypatch):
+    config = load_config()
+    short = config.replace(episode={'population': 3, 'duration': 3.0})
+    long = config.replace(episode={'population': 3, 'duration': 6.0, 'seed': 2})
+    written = outputs.write_episode
+
+    def write(result, folder, **kwargs):
+        if result.config.episode.duration > 5:
+            raise KeyboardInterrupt  # stands for a kill while the long episode runs on
+        return written(result, folder, **kwargs)
+
+    monkeypatch.setattr(outputs, 'write_episode', write)
+    with pytest.raises(KeyboardInterrupt):
+        study._run_batch_and_write([(long, (0.0,), str(tmp_path / 'long'), False),
+                                    (short, (0.0,), str(tmp_path / 'short'), False)])
+    assert outputs.episode_complete(tmp_path / 'short')
+    assert not outputs.episode_complete(tmp_path / 'long')
