@@ -13,7 +13,13 @@ A benchmark, not a test: the numbers depend on the machine and its load. Targets
 N = 10,000 at 1x real time or better on one core, N = 1,000 at 20x, N = 50 as fast as before
 (issue 2: at least 250x).
 
+First, the batched engine (issue 14): for N = 10 and 50 in the shipped arena, batches of 1, 4,
+16 and 64 episodes (seeds 1..K) stepped together by ``run_batch``, each episode's real-time
+factor (K x sim seconds per wall second) and the split of a step per episode (a profiled
+batch; metrics samples and bookkeeping are the rest). Target: N = 50 at 900x per episode.
+
     .venv/bin/python bench/bench_embedded.py [--populations 50 1000 10000] [--duration 400]
+        [--batch-sizes 1 4 16 64] [--batch-populations 10 50] [--batch-duration 100]
 
 Large swarms run shorter episodes (``--duration`` * 500 / N, at least ``--min-duration``),
 so the whole benchmark takes a few minutes here.
@@ -25,9 +31,10 @@ import argparse
 import math
 import time
 
+from swarm_supervisor.batch import Batch
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.episode import PARTS, Episode
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.runner import run_batch, run_episode
 
 #: The paper's largest swarm, which the shipped arena holds: the density every N runs at.
 REFERENCE_POPULATION = 50
@@ -67,9 +74,49 @@ def split(config: SwarmConfig) -> tuple[dict[str, float], float]:
     return {key: value / episode.steps_done * 1e6 for key, value in spent.items()}, setup
 
 
+#: The batched engine's target (issue 14): N = 50 at this real-time factor per episode.
+BATCH_TARGET = (50, 900.0)
+
+
+def batched(base: SwarmConfig, populations: list[int], sizes: list[int], duration: float,
+            split_parts: bool) -> None:
+    """Print each episode's real-time factor in batches of each size, and the split."""
+    print(f'batched engine: K episodes of {duration:g} s (seeds 1..K) stepped together, '
+          'per episode')
+    names = (*PARTS, 'rest')
+    print(f'{"N":>4} {"K":>4} {"wall s":>7} {"us/ep-step":>10} {"x real time":>11} '
+          f'{"x (CPU)":>8}' + ('  ' + ' '.join(f'{name:>16}' for name in names)
+                               if split_parts else ''))
+    for population in populations:
+        for size in sizes:
+            configs = [base.replace(episode={'population': population, 'duration': duration,
+                                             'seed': seed + 1}) for seed in range(size)]
+            cpu, started = time.process_time(), time.perf_counter()
+            run_batch(configs)
+            wall, cpu = time.perf_counter() - started, time.process_time() - cpu
+            steps = configs[0].steps() * size
+            line = (f'{population:4d} {size:4d} {wall:7.2f} {wall / steps * 1e6:10.1f} '
+                    f'{size * duration / wall:10.1f}x {size * duration / cpu:7.1f}x')
+            if split_parts:
+                batch = Batch([Episode(config) for config in configs], profile=True)
+                while not batch.done:
+                    batch.step()
+                # The parts of the profiled run, beside the plain run's us per step: 'rest'
+                # is what the parts leave of it (metrics samples, collection, regrouping).
+                total = wall / steps * 1e6
+                parts = {name: value / steps * 1e6 for name, value in batch.profile.items()}
+                parts['rest'] = max(total - sum(parts.values()), 0.0)
+                line += '  ' + ' '.join(f'{parts[name]:9.1f} ({parts[name] / total:3.0%})'
+                                        for name in names)
+            if (population, size) == (BATCH_TARGET[0], max(sizes)):
+                met = size * duration / wall >= BATCH_TARGET[1]
+                line += f'  target {BATCH_TARGET[1]:g}x: {"met" if met else "MISSED"}'
+            print(line, flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--populations', type=int, nargs='+',
+    parser.add_argument('--populations', type=int, nargs='*',
                         default=[50, 500, 1000, 2000, 10000])
     parser.add_argument('--duration', type=float, default=400.0,
                         help='sim seconds per episode for N <= 500')
@@ -77,9 +124,20 @@ def main() -> None:
                         help='the shortest episode of a large swarm (sim seconds)')
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--no-split', action='store_true', help='skip the profiled runs')
+    parser.add_argument('--batch-sizes', type=int, nargs='*', default=[1, 4, 16, 64],
+                        help='batch sizes of the batched engine (none: skip it)')
+    parser.add_argument('--batch-populations', type=int, nargs='+', default=[10, 50])
+    parser.add_argument('--batch-duration', type=float, default=100.0,
+                        help='sim seconds per episode of the batched runs')
     args = parser.parse_args()
     base = load_config()
     run_episode(base.replace(episode={'population': 300, 'duration': 1.0}))  # compile kernels
+    run_batch([base.replace(episode={'population': 5, 'duration': 1.0})] * 2)
+    if args.batch_sizes:
+        batched(base, args.batch_populations, args.batch_sizes, args.batch_duration,
+                not args.no_split)
+    if not args.populations:
+        return
     print(f'embedded runner at the density of N = {REFERENCE_POPULATION} in the '
           f'{base.world.arena_side:g} m arena, seed {args.seed}, one core')
     # The CPU time of this process beside the wall time: on a shared machine the wall clock
