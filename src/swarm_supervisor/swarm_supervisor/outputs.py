@@ -28,19 +28,23 @@ FINAL_PNG = 'final_cue_map.png'
 
 
 def write_metrics_csv(rows: list[dict[str, float]], path: str | Path) -> None:
-    """One row per sample, columns :data:`~swarm_metrics.metrics.COLUMNS`."""
+    """One row per sample: the columns :data:`~swarm_metrics.metrics.COLUMNS`, then the
+    per-source ones an episode with several sources adds (``metrics.columns``)."""
+    names = list(rows[0]) if rows else list(COLUMNS)
     with open(path, 'w', newline='') as handle:
-        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer = csv.DictWriter(handle, fieldnames=names)
         writer.writeheader()
         for row in rows:
-            writer.writerow({key: repr(float(row[key])) for key in COLUMNS})
+            writer.writerow({key: repr(float(row[key])) for key in names})
 
 
 def read_metrics_csv(path: str | Path) -> dict[str, np.ndarray]:
-    """metrics.csv as a column -> float array mapping."""
+    """metrics.csv as a column -> float array mapping (every column it has)."""
     with open(path, newline='') as handle:
-        rows = list(csv.DictReader(handle))
-    return {key: np.array([float(row[key]) for row in rows]) for key in COLUMNS}
+        reader = csv.DictReader(handle)
+        rows = list(reader)
+        names = reader.fieldnames or list(COLUMNS)
+    return {key: np.array([float(row[key]) for row in rows]) for key in names}
 
 
 def episode_record(result: EpisodeResult, runner: str = 'embedded') -> dict:

@@ -75,7 +75,8 @@ class WorldParams:
                                  f'across the arena')
 
     def source_list(self) -> list[Source]:
-        """The leak sources, the paper's disc when ``sources`` is empty.
+        """The leak sources in name order (a ROS parameter server sorts them too), the
+        paper's disc when ``sources`` is empty.
 
         Raises:
             ParameterError: a bad name, a wrong number of values, a source outside the arena,
@@ -93,7 +94,7 @@ class WorldParams:
                     raise ParameterError(f'world.{key}.{name}: no source named {name!r} '
                                          f'(sources: {", ".join(given)})')
         result = []
-        for name, values in given.items():
+        for name, values in sorted(given.items()):
             where = f'world.sources.{name}'
             if not NAME_PATTERN.match(name):
                 raise ParameterError(f'{where}: a source name must be a lower-case identifier')
