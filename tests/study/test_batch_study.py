@@ -61,3 +61,16 @@ def test_an_interrupted_batch_keeps_its_finished_episodes(tmp_path, monkeypatch)
                                     (short, (0.0,), str(tmp_path / 'short'), False)])
     assert outputs.episode_complete(tmp_path / 'short')
     assert not outputs.episode_complete(tmp_path / 'long')
+
+
+def test_run_with_several_seeds_writes_each_as_alone(tmp_path):
+    from swarm_supervisor.cli import main
+
+    common = ['--population', '4', '--duration', '6', '--speed', '4']
+    assert main(['run', *common, '--seed', '3', '7', '--out',
+                 str(tmp_path / 'many')]) == 0
+    assert main(['run', *common, '--seed', '7', '--out', str(tmp_path / 'one')]) == 0
+    for name in COMPARED:
+        assert (tmp_path / 'many' / 's7' / name).read_bytes() == \
+            (tmp_path / 'one' / name).read_bytes()
+    assert outputs.episode_complete(tmp_path / 'many' / 's3')

@@ -18,7 +18,9 @@ from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.live import DEFAULT_PORT, LiveServer, LiveView, announce
 from swarm_supervisor.outputs import write_episode
 from swarm_supervisor.record import BagRecorder, RecordError
-from swarm_supervisor.runner import EpisodeObserver, EpisodeResult, Pacer, run_episode
+from swarm_supervisor.runner import (EpisodeObserver, EpisodeResult, Pacer, run_batch,
+                                     run_episode)
+from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 
 
 def register(subparsers) -> None:
@@ -31,7 +33,12 @@ def register(subparsers) -> None:
     parser.add_argument('--population', type=int, help='number of robots N (default: config)')
     parser.add_argument('--speed', type=bounded(float, 0, 100, 'cm/s'), metavar='CM_PER_S',
                         help='forward speed in cm/s, e.g. 8 or 4 (default: config)')
-    parser.add_argument('--seed', type=int, help='episode seed (default: config)')
+    parser.add_argument('--seed', type=int, nargs='+',
+                        help='episode seed (default: config); several seeds run as episodes '
+                             'stepped together (the batched engine), each into DIR/s<seed>')
+    parser.add_argument('--batch-size', type=bounded(int, 1), default=DEFAULT_BATCH_SIZE,
+                        metavar='B', help='with several seeds: episodes stepped together at '
+                        f'most (default {DEFAULT_BATCH_SIZE}); the outputs are the same for any')
     parser.add_argument('--duration', type=float, metavar='SECONDS',
                         help='simulated episode length (default: config)')
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
@@ -64,10 +71,12 @@ def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the episode and write its outputs."""
+    """Run the episode (or the episodes of several seeds) and write its outputs."""
+    if args.seed is not None and len(args.seed) > 1:
+        return _run_seeds(args)
     config = load_config(args.config)
     episode = {key: value for key, value in (('population', args.population),
-                                              ('seed', args.seed),
+                                              ('seed', args.seed and args.seed[0]),
                                               ('duration', args.duration))
                if value is not None}
     controller = {} if args.speed is None else {'speed': args.speed / 100}
@@ -112,3 +121,51 @@ def run(args: argparse.Namespace) -> int:
           f'{result.real_time_factor:.0f}x real time'
           + (f'; bag {extra["bag"]}' if extra else ''))
     return 0
+
+
+def _run_seeds(args: argparse.Namespace) -> int:
+    """Several seeds: batches of episodes stepped together, each written into DIR/s<seed> as
+    soon as it is done (the same files as ``run --seed S --out DIR/s<seed>``)."""
+    if args.live or args.pace is not None:
+        print('mona-swarm run: error: --live and --pace take one seed', file=sys.stderr)
+        return 2
+    base = load_config(args.config)
+    episode = {key: value for key, value in (('population', args.population),
+                                              ('duration', args.duration))
+               if value is not None}
+    controller = {} if args.speed is None else {'speed': args.speed / 100}
+    configs = [base.replace(episode={**episode, 'seed': seed}, controller=controller)
+               for seed in args.seed]
+    folders = [args.out / f's{seed}' for seed in args.seed]
+    times = base.study.snapshot_times + (configs[0].episode.duration,)
+    status = 0
+    for first in range(0, len(configs), args.batch_size):
+        chunk = range(first, min(first + args.batch_size, len(configs)))
+        recorders = []
+        for k in chunk:
+            try:
+                recorders.append(BagRecorder(folders[k]) if args.bag else None)
+            except FileExistsError as error:
+                print(f'mona-swarm run: error: {error}', file=sys.stderr)
+                return 2
+
+        def finished(index: int, result: EpisodeResult, chunk=chunk, recorders=recorders
+                     ) -> None:
+            nonlocal status
+            k, extra = chunk[index], {}
+            if recorders[index] is not None:
+                try:
+                    extra['bag'] = str(recorders[index].check(result).path)
+                except RecordError as error:
+                    print(f'mona-swarm run: error: {error}', file=sys.stderr)
+                    status = 1
+                    return
+            out = write_episode(result, folders[k], extra=extra)
+            last = result.metrics[-1]
+            print(f'{out}: seed={args.seed[k]}: mean cue {last["mean_cue"]:.2f} '
+                  f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s; '
+                  f'{result.real_time_factor:.0f}x real time per episode', flush=True)
+
+        run_batch([configs[k] for k in chunk], snapshot_times=times,
+                  observers=[[] if r is None else [r] for r in recorders], finished=finished)
+    return status
