@@ -187,6 +187,13 @@ def _grid(panels: int, columns: int, size: tuple[float, float], **options):
     return fig, flat[:panels]
 
 
+def _from_zero(axes: list) -> None:
+    """Start the y axes at 0 once every panel is drawn: fixed any earlier, a shared axis would
+    keep the first panel's top and clip the others (a leaking source's cue rises above it)."""
+    for ax in axes:
+        ax.set_ylim(bottom=0)
+
+
 def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float) -> str:
     """Mean cue vs time, one curve per N (median over seeds), one panel per speed (and per
     level of the design's extra factors, :func:`variants`).
@@ -214,7 +221,6 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
                      fontsize='small' if faceted else 'medium')
         ax.set_xlabel('time (s)')
         ax.set_xlim(0, table['t'].max())
-        ax.set_ylim(0, None)
         ax.grid(alpha=0.3)
         if k == 0 or not faceted:
             ax.legend(title='robots', fontsize='small', loc='best')
@@ -226,6 +232,7 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel('arena mean cue (0..255)' if faceted else
                           'arena mean cue (intensity units, 0..255)')
+    _from_zero(axes)
     fig.suptitle(f'Fig. 4  Mean cue vs time (median over {seeds_label(table)})')
     _finish(fig, path)
     return '' if list(speeds) == [0.08, 0.04] else \
@@ -315,10 +322,10 @@ def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel('coherency: mean pairwise distance (m)')
         ax.set_xlim(0, chosen['t'].max())
-        ax.set_ylim(0, None)
         ax.grid(alpha=0.3)
         if faceted:
             ax.set_title(label, fontsize='small')
+    _from_zero(axes)
     axes[0].legend(title='robots', fontsize='small')
     title = (f'Fig. 6  Coherency (lower = tighter swarm), v = {speed_label(speed)}\n'
              f'median and min-max over {seeds_label(chosen)}' + (f'\n{note}' if note else ''))
