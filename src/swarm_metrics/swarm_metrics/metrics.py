@@ -7,6 +7,7 @@ the same way.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numba
@@ -60,7 +61,11 @@ def ratio_near_source(positions: np.ndarray, sources: np.ndarray, radius: float)
     ``sources`` is [S, 2] (or one (x, y) pair)."""
     if len(positions) == 0:
         return float('nan')
-    _, distance = nearest(positions, np.asarray(sources, dtype=np.float64).reshape(-1, 2))
+    sources = np.asarray(sources, dtype=np.float64).reshape(-1, 2)
+    if len(sources) == 1:  # the paper's case, without the nearest-source search
+        distance = np.hypot(positions[:, 0] - sources[0, 0], positions[:, 1] - sources[0, 1])
+    else:
+        _, distance = nearest(positions, sources)
     return float(np.count_nonzero(distance <= radius) / len(positions))
 
 
@@ -111,12 +116,22 @@ def coherency(positions: np.ndarray) -> float:
     if n < 2:
         return float('nan')
     if n <= ALL_PAIRS_MAX:
-        i, j = np.triu_indices(n, k=1)
+        i, j = _pairs(n)
         return float(np.hypot(positions[i, 0] - positions[j, 0],
                               positions[i, 1] - positions[j, 1]).mean())
     xy = np.asarray(positions, dtype=np.float64)
     rows = _row_distance_sums(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]))
     return float(rows.sum() / (n * (n - 1) // 2))
+
+
+@functools.lru_cache(maxsize=64)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair (i < j) of n robots, as index arrays (cached: a sample takes them anew
+    otherwise, almost half of its coherency's cost)."""
+    i, j = np.triu_indices(n, k=1)
+    i.setflags(write=False)
+    j.setflags(write=False)
+    return i, j
 
 
 # 'reassoc' only: the sum of a row may be added in any order (so LLVM vectorises the square
@@ -155,6 +170,18 @@ def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray
         row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
                                   params.source_radius))
     return row
+
+
+def source_names(columns: list[str] | tuple[str, ...]) -> list[str]:
+    """The sources named by per-source columns among ``columns`` (in column order)."""
+    prefix = SOURCE_COLUMNS[0].format('')
+    return [c[len(prefix):] for c in columns if c.startswith(prefix) and c not in COLUMNS]
+
+
+def is_source_column(column: str) -> bool:
+    """Whether ``column`` is one of the per-source columns (:data:`SOURCE_COLUMNS`)."""
+    return column not in COLUMNS and any(
+        column.startswith(pattern.format('')) for pattern in SOURCE_COLUMNS)
 
 
 def columns(names: tuple[str, ...]) -> tuple[str, ...]:

@@ -20,6 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from swarm_metrics.metrics import SOURCE_COLUMNS, source_names  # noqa: E402
 from swarm_supervisor.plots import draw_cue_map  # noqa: E402
 from swarm_supervisor.study import design_factors  # noqa: E402
 
@@ -27,6 +28,8 @@ FIG3 = 'fig3_cue_maps.png'
 FIG4 = 'fig4_mean_cue.png'
 FIG5 = 'fig5_ratio_near_source.png'
 FIG6 = 'fig6_coherency.png'
+#: Drawn when the episodes have several sources (docs/model.md "Leaks beyond the paper").
+FIG_SOURCES = 'fig_sources.png'
 
 #: The paper's levels: fig. 3 at N = 30, figs. 5 and 6 at N = 10, 30, 50, both at 8 cm/s.
 PAPER_SPEED = 0.08
@@ -237,6 +240,42 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
     _finish(fig, path)
     return '' if list(speeds) == [0.08, 0.04] else \
         'speeds ' + ', '.join(map(speed_label, speeds)) + ' (the paper: 8 and 4 cm/s)'
+
+
+def fig_sources(table: pd.DataFrame, path: str | Path) -> str:
+    """Each source's share of the initial cue vs time (``mean_cue_fraction_<name>``), one
+    curve per N (median over seeds), one panel per source and speed (and per level of the
+    design's extra factors). Returns a note ('' when there is nothing to add)."""
+    names = source_names(list(table.columns))
+    if not names:
+        raise FigureSkipped('the episodes have one source')
+    speeds = sorted(table['speed'].unique(), reverse=True)
+    facets = variants(table)
+    colours = _colours(table['population'].unique())
+    panels = [(name, label, rows, speed) for label, rows in facets for name in names
+              for speed in speeds]
+    fig, axes = _grid(len(panels), len(names) * len(speeds), (4.2, 3.2), sharey=True)
+    for k, (ax, (name, label, rows, speed)) in enumerate(zip(axes, panels)):
+        column = SOURCE_COLUMNS[0].format(name)
+        stats = over_seeds(rows, column)
+        for n in sorted(stats['population'].unique(), reverse=True):
+            curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
+            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
+                    label=f'N = {n}')
+        ax.set_title(f'({chr(ord("a") + k) if k < 26 else "-"}) source {name!r}, '
+                     f'v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
+                     fontsize='small')
+        ax.set_xlabel('time (s)')
+        ax.set_xlim(0, table['t'].max())
+        ax.grid(alpha=0.3)
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel('cue in its region\n(fraction of the initial total)')
+    _from_zero(axes)
+    axes[0].legend(title='robots', fontsize='small')
+    fig.suptitle('Cue near each source: the cells nearer to it than to any other, where the '
+                 f'sources are (median over {seeds_label(table)})')
+    _finish(fig, path)
+    return ''
 
 
 def _three_populations(table: pd.DataFrame) -> tuple[pd.DataFrame, list[int], float, str]:

@@ -26,6 +26,7 @@ from swarm_supervisor import anova as anova_tables
 from swarm_supervisor import claims as claim_checks
 from swarm_supervisor import figures
 from swarm_metrics.completeness import Finding
+from swarm_metrics.metrics import source_names
 from swarm_supervisor import __version__, outputs, sensitivity, study
 
 REPORT_FILE = 'report.md'
@@ -97,7 +98,8 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
 
 def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                  records: Sequence[dict[str, Any]]) -> list[Figure]:
-    """Figures 3-6 into ``out``; fig. 3 is skipped (with a note) when no episode kept maps."""
+    """Figures 3-6 into ``out`` (and the per-source figure when the episodes have several
+    sources); fig. 3 is skipped (with a note) when no episode kept maps."""
     initial = table['mean_cue'] / table['mean_cue_fraction']
     initial_mean = float(np.nanmedian(initial)) if initial.notna().any() else 0.0
     radius = records[0].get('parameters', {}).get('metrics', {}).get('source_radius', 0.7)
@@ -112,6 +114,11 @@ def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                                                        source_radius=radius)))
     drawn.append(Figure('Fig. 6: coherency', figures.FIG6,
                         figures.fig6_coherency(table, out / figures.FIG6)))
+    if source_names(list(table.columns)):
+        drawn.append(Figure('Cue near each source', figures.FIG_SOURCES,
+                            figures.fig_sources(table, out / figures.FIG_SOURCES)))
+    else:  # never leave an earlier design's figure beside these results
+        (out / figures.FIG_SOURCES).unlink(missing_ok=True)
     return drawn
 
 

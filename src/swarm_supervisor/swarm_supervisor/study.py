@@ -39,7 +39,7 @@ from tqdm import tqdm
 
 from mona_controller.schema import ParameterError
 from swarm_metrics.completeness import Finding, check_rows
-from swarm_metrics.metrics import COLUMNS
+from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, write_ros_yaml
 from swarm_supervisor.batch import batch_key
@@ -591,14 +591,15 @@ def varying_parameters(folders: Sequence[Path]) -> list[str]:
 def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) -> pd.DataFrame:
     """All episodes as one table, sorted by episode and t: columns population, speed, seed,
     the extra ``factors`` (dotted keys; default: the parameters that vary between the
-    folders, :func:`varying_parameters`), then t and the metrics.
+    folders, :func:`varying_parameters`), then t and the metrics (with several sources, the
+    per-source metrics after them).
 
     Raises:
         StudyError: a folder's files are unreadable, or two folders hold the same episode.
     """
     folders = [Path(folder) for folder in folders]
     factors = list(varying_parameters(folders) if factors is None else factors)
-    frames, seen = [], {}
+    frames, seen, shared = [], {}, []
     for folder in folders:
         key = episode_key(folder, factors)
         identity = json.dumps(list(key.values()))
@@ -614,10 +615,13 @@ def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) ->
         missing = [c for c in COLUMNS if c not in metrics.columns]
         if missing:
             raise StudyError(f'{folder / outputs.METRICS_FILE} lacks columns {missing}')
-        frames.append(metrics[list(COLUMNS)].assign(**key))
+        per_source = [c for c in metrics.columns if is_source_column(c)]
+        shared = per_source if not frames else [c for c in shared if c in per_source]
+        frames.append(metrics[list(COLUMNS) + per_source].assign(**key))
     if not frames:
         raise StudyError('no episodes to tabulate')
-    columns = list(KEYS) + factors + list(COLUMNS)
+    # Several sources: their columns (metrics.source_columns) follow, if every episode has them.
+    columns = list(KEYS) + factors + list(COLUMNS) + shared
     table = pd.concat(frames, ignore_index=True)[columns]
     return table.sort_values(list(KEYS) + factors + ['t'], kind='stable', ignore_index=True)
 
@@ -626,7 +630,8 @@ def design_factors(table: pd.DataFrame) -> list[str]:
     """The factors a design declares beyond population, speed and seed: the table's columns
     that are not :data:`TABLE_COLUMNS`, named by their dotted parameter key (e.g.
     ``mona.ir_range``), in table order."""
-    return [column for column in table.columns if column not in TABLE_COLUMNS]
+    return [column for column in table.columns
+            if column not in TABLE_COLUMNS and not is_source_column(column)]
 
 
 def write_table(rows: list[dict[str, float]] | pd.DataFrame, path: str | Path) -> None:

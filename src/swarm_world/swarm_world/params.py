@@ -98,6 +98,9 @@ class WorldParams:
             where = f'world.sources.{name}'
             if not NAME_PATTERN.match(name):
                 raise ParameterError(f'{where}: a source name must be a lower-case identifier')
+            if name == PAPER_SOURCE and len(given) > 1:  # its columns would be the totals'
+                raise ParameterError(f"{where}: {PAPER_SOURCE!r} names the paper's one source; "
+                                     'give several sources other names')
             x, y, radius, peak = _numbers(where, values, 4)
             if not (0 <= x <= self.arena_side and 0 <= y <= self.arena_side):
                 raise ParameterError(f'{where}: position ({x}, {y}) is outside the '
