@@ -49,9 +49,12 @@ def draw_cue_map(ax, cue: np.ndarray, poses: np.ndarray | None, arena_side: floa
 def save_cue_map(path: str | Path, cue: np.ndarray, poses: np.ndarray | None,
                  arena_side: float, body_radius: float, *, title: str | None = None) -> None:
     """Write one cue map with the robots to a PNG file."""
-    fig, ax = plt.subplots(figsize=(5.5, 5))
+    # A fixed layout (what tight_layout finds for this figure): laying it out costs a whole
+    # extra draw, a third of the time of every episode's picture.
+    fig = plt.figure(figsize=(5.5, 5))
+    ax = fig.add_axes((0.13, 0.1, 0.66, 0.8))
     image = draw_cue_map(ax, cue, poses, arena_side, body_radius, title=title)
-    fig.colorbar(image, ax=ax, label='cue intensity (0..255)')
-    fig.tight_layout()
+    fig.colorbar(image, cax=fig.add_axes((0.82, 0.1, 0.035, 0.8)),
+                 label='cue intensity (0..255)')
     fig.savefig(path, dpi=120)
     plt.close(fig)
