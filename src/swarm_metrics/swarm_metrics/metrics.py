@@ -69,23 +69,40 @@ def ratio_near_source(positions: np.ndarray, sources: np.ndarray, radius: float)
     return float(np.count_nonzero(distance <= radius) / len(positions))
 
 
-@numba.njit(cache=True)
+# 'reassoc': each row's sums may be added in any order (so LLVM vectorises them); the rows
+# are then added in order. Deterministic for a given build, like the coherency's row sums.
+@numba.njit(cache=True, fastmath={'reassoc'})
 def region_totals(cue: np.ndarray, cell_size: float, sx: np.ndarray,
                   sy: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
     """The cue summed (float64) over each source's region: the cells whose centre is nearer
     to that source (at ``sx``, ``sy``) than to any other (the first on a tie)."""
     rows, cols = cue.shape
-    totals = np.zeros(sx.shape[0])
+    count = sx.shape[0]
+    # Squared offsets per axis, once: a cell's squared distance is then one addition.
+    dx2 = np.empty((count, cols))
+    for k in range(count):
+        for j in range(cols):
+            dx2[k, j] = ((j + 0.5) * cell_size - sx[k]) ** 2
+    best = np.empty(cols)
+    which = np.empty(cols, dtype=np.int64)
+    totals = np.zeros(count)
     for i in range(rows):
         y = (i + 0.5) * cell_size
-        for j in range(cols):
-            x = (j + 0.5) * cell_size
-            best, which = np.inf, 0
-            for k in range(sx.shape[0]):
-                d = (x - sx[k]) ** 2 + (y - sy[k]) ** 2
-                if d < best:
-                    best, which = d, k
-            totals[which] += cue[i, j]
+        for j in range(cols):  # branch-free passes, so each vectorises
+            best[j] = dx2[0, j] + (y - sy[0]) ** 2
+            which[j] = 0
+        for k in range(1, count):
+            dy2 = (y - sy[k]) ** 2
+            for j in range(cols):
+                d = dx2[k, j] + dy2
+                closer = d < best[j]
+                best[j] = d if closer else best[j]
+                which[j] = k if closer else which[j]
+        for k in range(count):
+            row = 0.0
+            for j in range(cols):
+                row += np.float64(cue[i, j]) if which[j] == k else 0.0
+            totals[k] += row
     return totals
 
 
