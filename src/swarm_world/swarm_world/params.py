@@ -54,8 +54,9 @@ class WorldParams:
                                doc='name -> [speed m/s, x1, y1, x2, y2, ...]: moves along the '
                                    'closed loop from its position through these waypoints (m)')
     cue_file: str = param('', doc="initial cue from a .npy array (cue units, row = y) or an "
-                                  "image (grey level, top = +y), scaled to the arena; '' = "
-                                  "the sources' profiles")
+                                  "image (grey level, top = +y), scaled to the arena; a path "
+                                  "absolute or relative to the working directory (of every "
+                                  "node too); '' = the sources' profiles")
     diffusion: float = param(0.0, unit='m^2/s', low=0.0, high=1.0,
                              doc='diffusion coefficient of the cue (0: none)')
     half_life: float = param(0.0, unit='s', low=0.0, high=1e9,
