@@ -85,11 +85,9 @@ class WorldParams:
         """
         given = dict(self.sources) or {PAPER_SOURCE: (*self.centre, self.cue_diameter / 2,
                                                       self.cue_peak)}
-        options = {'source_profile': (dict(self.source_profile), 1),
-                   'source_emission': (dict(self.source_emission), 1),
-                   'source_velocity': (dict(self.source_velocity), 2),
-                   'source_path': (dict(self.source_path), None)}
-        for key, (mapping, _) in options.items():
+        options = {key: dict(getattr(self, key)) for key in
+                   ('source_profile', 'source_emission', 'source_velocity', 'source_path')}
+        for key, mapping in options.items():
             for name in mapping:
                 if name not in given:
                     raise ParameterError(f'world.{key}.{name}: no source named {name!r} '
@@ -109,16 +107,16 @@ class WorldParams:
             if radius < 0 or not 0 <= peak <= 255:
                 raise ParameterError(f'{where}: radius must be >= 0 m and peak in 0..255 '
                                      f'cue units (got {radius}, {peak})')
-            profile = options['source_profile'][0].get(name, ('linear',))
+            profile = options['source_profile'].get(name, ('linear',))
             if len(profile) != 1 or profile[0] not in PROFILES:
                 raise ParameterError(f'world.source_profile.{name} = {list(profile)}: expected '
                                      f'[{" | ".join(PROFILES)}]')
             (emission,) = _numbers(f'world.source_emission.{name}',
-                                   options['source_emission'][0].get(name, (0.0,)), 1)
+                                   options['source_emission'].get(name, (0.0,)), 1)
             velocity = _numbers(f'world.source_velocity.{name}',
-                                options['source_velocity'][0].get(name, (0.0, 0.0)), 2)
+                                options['source_velocity'].get(name, (0.0, 0.0)), 2)
             path = _numbers(f'world.source_path.{name}',
-                            options['source_path'][0].get(name, (0.0,)), None)
+                            options['source_path'].get(name, (0.0,)), None)
             if emission < 0 or path[0] < 0 or len(path) % 2 == 0:
                 raise ParameterError(f'{where}: emission and path speed must be >= 0 and a '
                                      'path is [speed, x1, y1, ...]')
