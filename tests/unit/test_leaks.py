@@ -201,6 +201,10 @@ def test_a_cue_map_loads_from_an_array_or_an_image(tmp_path):
     ({'source_path': {'source': [0.1, 1.0]}}, 'a path is'),
     ({'source_path': {'source': [0.1, 1.0, 9.0]}}, 'waypoint lies outside'),
     ({'diffusion': -1.0}, 'world.diffusion = -1.0 is out of range'),
+    ({'source_velocity': {'source': [0.1, 0.0]}, 'source_path': {'source': [0.1, 1.0, 1.0]}},
+     'a velocity or a path, not both'),
+    ({'sources': {'source': [1.0, 1.0, 0.5, 255.0], 'b': [2.0, 1.0, 0.5, 255.0]}},
+     "'source' names the paper's one source"),
 ])
 def test_bad_leak_parameters_are_named(world, message):
     with pytest.raises(ParameterError, match=message):

@@ -120,6 +120,8 @@ class WorldParams:
             if emission < 0 or path[0] < 0 or len(path) % 2 == 0:
                 raise ParameterError(f'{where}: emission and path speed must be >= 0 and a '
                                      'path is [speed, x1, y1, ...]')
+            if name in options['source_velocity'] and name in options['source_path']:
+                raise ParameterError(f'{where}: give it a velocity or a path, not both')
             points = tuple(zip(path[1::2], path[2::2]))
             if any(not (0 <= px <= self.arena_side and 0 <= py <= self.arena_side)
                    for px, py in points):
