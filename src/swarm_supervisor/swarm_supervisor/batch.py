@@ -92,6 +92,10 @@ class Batch:
         self.active = [member for member in self.members if not member.done]
         if not self.active:
             return
+        # Steps until the first running episode is done: the membership changes no sooner,
+        # so a step need not ask every member (K members, every step) whether it is done.
+        self._steps_left = min(member.steps_total - member.steps_done
+                               for member in self.active)
         worlds = [member.world for member in self.active]
         counts = np.array([world.population for world in worlds], dtype=np.int64)
         self._bounds = np.concatenate(([0], np.cumsum(counts)))
@@ -171,7 +175,8 @@ class Batch:
             steps.append((member, Step(
                 before, world.time_ns, crossed(before, world.time_ns, member.sample_ns),
                 world.cleaned, Command(command.wheels[rows], command.cleaner[rows]))))
-        if any(member.done for member in self.active):
+        self._steps_left -= 1
+        if self._steps_left <= 0:
             self._regroup()
         return steps
 

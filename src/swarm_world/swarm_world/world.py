@@ -21,6 +21,11 @@ from swarm_world.sensors import ground_readings, proximity
 from swarm_world.timing import crossed
 
 
+#: No robot (what ``World.cleaned`` holds after a step without cleaning); read-only, shared.
+_NOBODY = np.zeros(0, dtype=np.int64)
+_NOBODY.setflags(write=False)
+
+
 @dataclasses.dataclass
 class Readings:
     """What every robot senses at one instant (a Mona driver publishes the same)."""
@@ -44,6 +49,8 @@ class World:
         self.mona = mona
         self.bearings = mona.ir_bearings()
         self.field = CueField(params, mona)
+        self._step_ns = params.step_ns
+        self._cleaning_ns = round(params.cleaning_period * 1e9)
         self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
         self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
         self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
@@ -53,7 +60,7 @@ class World:
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(0, dtype=bool)
-        self.cleaned = np.zeros(0, dtype=np.int64)  # robots that cleaned in the last step
+        self.cleaned = _NOBODY  # robots that cleaned in the last step
 
     @property
     def cue(self) -> np.ndarray:
@@ -96,7 +103,7 @@ class World:
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(len(poses), dtype=bool)
-        self.cleaned = np.zeros(0, dtype=np.int64)
+        self.cleaned = _NOBODY
 
     def _physics(self, poses: np.ndarray) -> Physics:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
@@ -146,10 +153,9 @@ class World:
         self.physics.step(linear, angular, self.params.step_period)
         before = self.time_ns
         self.steps += 1
-        self.time_ns = self.steps * self.params.step_ns
-        period_ns = round(self.params.cleaning_period * 1e9)
-        self.cleaned = np.zeros(0, dtype=np.int64)
-        if crossed(before, self.time_ns, period_ns) and self.cleaning.any():
+        self.time_ns = self.steps * self._step_ns
+        self.cleaned = _NOBODY
+        if crossed(before, self.time_ns, self._cleaning_ns) and self.cleaning.any():
             self.cleaned = np.flatnonzero(self.cleaning)
             self.field.clean(self.poses[self.cleaned])  # eq. 3, in robot order
             self._sensed = None
