@@ -216,12 +216,11 @@ def test_the_episode_cue_equals_its_cleaning_record_replayed():
     after the transport ticks of the steps before it, equals the world's cue at every step."""
     episode = Episode(leak_config(population=14, duration=12.0))
     replica = CueField(episode.config.world, episode.config.mona)
-    step_ns, cleanings = episode.config.world.step_ns, 0
+    cleanings = 0
     while not episode.done:
         step = episode.step()
         if len(step.cleaned):
-            replica.advance_to(step.time_ns - step_ns)
-            replica.clean(episode.world.poses[step.cleaned])
+            replica.clean_at(step.time_ns, episode.world.poses[step.cleaned])
             cleanings += 1
         replica.advance_to(step.time_ns)
         assert np.array_equal(replica.cue, episode.world.cue), step.time_ns

@@ -21,7 +21,7 @@ from mona_controller.contract import Announcement, ContractError
 from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
-from swarm_metrics.metrics import COLUMNS, MetricsParams, sample
+from swarm_metrics.metrics import COLUMNS, MetricsParams, sample_field
 from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.field import CueField
@@ -179,20 +179,17 @@ class MetricsReplica:
         """The cue at ``time_ns``: every cleaning event stamped up to it applied in order, each
         after the transport ticks of the steps before its own (as the world steps)."""
         due = [event for event in self._events if event[0] <= time_ns]
-        start, step_ns = self.setup.start_ns, self.setup.world.step_ns
+        start = self.setup.start_ns
         if due:
             self._events = [event for event in self._events if event[0] > time_ns]
             for stamp, poses in sorted(due, key=lambda event: event[0]):
-                self.field.advance_to(stamp - start - step_ns)
-                self.field.clean(poses)
+                self.field.clean_at(stamp - start, poses)
         self.field.advance_to(min(time_ns, self.setup.end_ns) - start)  # NEVER: the end
         return self.field.cue
 
     def _row(self, k: int, poses: np.ndarray) -> dict[str, float]:
-        t = k * self.setup.metrics.sample_period
-        return sample(t, self.field.cue, self.initial_mean, poses[:, :2],
-                      self.field.source_positions(t), self.setup.metrics, self.field.names,
-                      self.setup.world.cell_size)
+        return sample_field(k * self.setup.metrics.sample_period, self.field, poses[:, :2],
+                            self.setup.metrics)
 
 
 @dataclasses.dataclass

@@ -255,11 +255,10 @@ class Renderer:
         """The cue after every cleaning event up to ``t_ns`` (frames go forward in time)."""
         if t_ns < self._time_ns:
             raise ValueError('frames must be rendered in time order')
-        setup, events = self.record.setup, self.record.cleaning
+        events = self.record.cleaning
         while self._next_event < len(events) and events[self._next_event][0] <= t_ns:
             stamp, poses = events[self._next_event]
-            self.field.advance_to(stamp - setup.world.step_ns)  # as the world steps
-            self.field.clean(poses)
+            self.field.clean_at(stamp, poses)
             self._next_event += 1
         self.field.advance_to(t_ns)
         self._time_ns = t_ns

@@ -43,6 +43,7 @@ class CueField:
         self.initial_mean = float(self.initial.mean(dtype=np.float64))
         self.kernel = cue_field.cleaning_kernel(params.cleaning_radius, params.cleaning_peak)
         self.period_ns = round(params.transport_period * 1e9)
+        self.step_ns = params.step_ns
         #: Whether anything but cleaning changes the cue (else ticks are skipped).
         self.dynamic = bool(params.diffusion or params.half_life
                             or any(source.emission for source in self.sources))
@@ -64,8 +65,12 @@ class CueField:
         return np.array([source.position(t, self.params.arena_side)
                          for source in self.sources], dtype=np.float64).reshape(-1, 2)
 
-    def clean(self, poses: np.ndarray) -> None:
-        """One cleaning tick: eq. 3 under each robot at ``poses`` [M, 3], in order."""
+    def clean_at(self, time_ns: int, poses: np.ndarray) -> None:
+        """The cleaning tick of the step that ends at episode time ``time_ns``: the transport
+        ticks of the steps before it (within a step the robots clean first), then eq. 3 under
+        each robot at ``poses`` [M, 3], in order. The world and every replay of a cleaning
+        record call this, so they apply the same changes in the same order."""
+        self.advance_to(time_ns - self.step_ns)
         clean_under(self.cue, poses, self.params, self.mona, self.kernel)
 
     def advance_to(self, time_ns: int) -> bool:

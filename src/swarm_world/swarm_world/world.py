@@ -157,7 +157,7 @@ class World:
         self.cleaned = _NOBODY
         if crossed(before, self.time_ns, self._cleaning_ns) and self.cleaning.any():
             self.cleaned = np.flatnonzero(self.cleaning)
-            self.field.clean(self.poses[self.cleaned])  # eq. 3, in robot order
+            self.field.clean_at(self.time_ns, self.poses[self.cleaned])  # eq. 3, robot order
             self._sensed = None
         if self.field.advance_to(self.time_ns):  # diffusion, evaporation, emission
             self._sensed = None
