@@ -9,11 +9,15 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from mona_controller.schema import param, validate
+
+if TYPE_CHECKING:  # the field is the world's; metrics only read it
+    from swarm_world.field import CueField
 
 #: Column order of metrics.csv and of the metrics topics.
 COLUMNS = ('t', 'mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
@@ -199,6 +203,14 @@ def is_source_column(column: str) -> bool:
     """Whether ``column`` is one of the per-source columns (:data:`SOURCE_COLUMNS`)."""
     return column not in COLUMNS and any(
         column.startswith(pattern.format('')) for pattern in SOURCE_COLUMNS)
+
+
+def sample_field(t: float, field: CueField, positions: np.ndarray,
+                 params: MetricsParams) -> dict[str, float]:
+    """:func:`sample` of an episode's cue field (its cue, initial mean, and its sources where
+    they are at ``t``): what the embedded runner and every replica of the cue record."""
+    return sample(t, field.cue, field.initial_mean, positions, field.source_positions(t),
+                  params, field.names, field.params.cell_size)
 
 
 def columns(names: tuple[str, ...]) -> tuple[str, ...]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from mona_controller.controller import Command, SwarmController
 from mona_controller.mona import wheels_to_twist
-from swarm_metrics.metrics import sample
+from swarm_metrics.metrics import sample_field
 from swarm_supervisor.config import SwarmConfig
 from swarm_world.placement import place_robots, placement_rng
 from swarm_world.sensors import ground_readings, proximity
@@ -152,6 +152,4 @@ class Episode:
         (what the runner records at t = 0 and after each step with ``sampled``)."""
         world = self.world
         t = world.time_ns // self.sample_ns * self.config.metrics.sample_period
-        return sample(t, world.cue, world.initial_mean_cue, world.poses[:, :2],
-                      world.field.source_positions(t), self.config.metrics, world.field.names,
-                      self.config.world.cell_size)
+        return sample_field(t, world.field, world.poses[:, :2], self.config.metrics)
