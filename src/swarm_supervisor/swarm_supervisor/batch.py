@@ -30,10 +30,8 @@ from mona_controller.controller import Command, SwarmController
 from mona_controller.mona import wheels_to_twist
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.episode import PARTS, Episode, Step
-from swarm_world import noise
-from swarm_world.sensors import _NO_NOISE, _ground_kernel, proximity_many
 from swarm_world.timing import crossed
-from swarm_world.world import Readings, World
+from swarm_world.world import Readings, WorldBatch
 
 
 class BatchError(ValueError):
@@ -96,54 +94,20 @@ class Batch:
         # so a step need not ask every member (K members, every step) whether it is done.
         self._steps_left = min(member.steps_total - member.steps_done
                                for member in self.active)
-        worlds = [member.world for member in self.active]
-        counts = np.array([world.population for world in worlds], dtype=np.int64)
-        self._bounds = np.concatenate(([0], np.cumsum(counts)))
-        self._slices = [slice(int(lo), int(hi))
-                        for lo, hi in zip(self._bounds[:-1], self._bounds[1:])]
-        self._counts = counts
-        monas = [world.mona for world in worlds]
+        self.worlds = WorldBatch([member.world for member in self.active])
+        self._slices = self.worlds.slices
+        self._counts = np.diff(self.worlds.bounds)
+        monas = [member.world.mona for member in self.active]
         self._twist = _Twist(
-            np.repeat([mona.wheel_unit_speed for mona in monas], counts),
-            np.repeat([mona.wheel_separation for mona in monas], counts))
-        self._ir = (np.array([mona.body_radius for mona in monas]),
-                    np.array([world.bearings for world in worlds]),
-                    np.array([mona.ir_range for mona in monas]),
-                    np.array([world.params.arena_side for world in worlds]))
+            np.repeat([mona.wheel_unit_speed for mona in monas], self._counts),
+            np.repeat([mona.wheel_separation for mona in monas], self._counts))
         self.controller = SwarmController.merge([member.controllers for member in self.active])
 
     def sense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every running robot's readings now, episode after episode: (ground [R, 2] uint8,
         ranges [R, K] float32, is_robot [R, K]); each episode's rows equal its
         ``World.sense()``."""
-        ground, (ranges, is_robot) = self._ground(), self._proximity()
-        return ground, ranges, is_robot
-
-    def _ground(self) -> np.ndarray:
-        ground = np.empty((int(self._bounds[-1]), 2), dtype=np.uint8)
-        for member, rows in zip(self.active, self._slices):
-            world = member.world
-            extra = _NO_NOISE
-            if world.noise.ground:  # as World.sense: the world's counter-based stream
-                extra = world.noise.ground * noise.normals(
-                    world.seed, noise.GROUND_STREAM, np.arange(world.population), world.steps,
-                    2)
-            _ground_kernel(world.sensed_field(), world.params.cell_size, world.poses,
-                           world.mona.wheel_separation / 2, extra, ground[rows])
-        return ground
-
-    def _proximity(self) -> tuple[np.ndarray, np.ndarray]:
-        poses = np.concatenate([member.world.poses for member in self.active])
-        ranges, is_robot = proximity_many(poses, self._bounds, *self._ir)
-        for member, rows in zip(self.active, self._slices):
-            world = member.world
-            if world.noise.ir_miss:  # as World.sense
-                missed = noise.uniforms(world.seed, noise.IR_STREAM,
-                                        np.arange(world.population), world.steps,
-                                        ranges.shape[1]) < world.noise.ir_miss
-                ranges[rows][missed] = np.inf
-                is_robot[rows][missed] = False
-        return ranges, is_robot
+        return self.worlds.sense()
 
     def readings(self) -> list[Readings]:
         """:meth:`sense` split into each running episode's :class:`Readings` (for tests)."""
@@ -167,13 +131,13 @@ class Batch:
 
     def _advance(self, command: Command) -> list[tuple[Episode, Step]]:
         linear, angular = wheels_to_twist(command.wheels, self._twist)
+        before = [member.world.time_ns for member in self.active]
+        self.worlds.step(linear, angular, command.cleaner)
         steps = []
-        for member, rows in zip(self.active, self._slices):
-            world: World = member.world
-            before = world.time_ns
-            world.step(linear[rows], angular[rows], command.cleaner[rows])
+        for member, rows, start in zip(self.active, self._slices, before):
+            world = member.world
             steps.append((member, Step(
-                before, world.time_ns, crossed(before, world.time_ns, member.sample_ns),
+                start, world.time_ns, crossed(start, world.time_ns, member.sample_ns),
                 world.cleaned, Command(command.wheels[rows], command.cleaner[rows]))))
         self._steps_left -= 1
         if self._steps_left <= 0:
@@ -183,9 +147,9 @@ class Batch:
     def _profiled_step(self) -> list[tuple[Episode, Step]]:
         spent, clock = self.profile, time.perf_counter
         t0 = clock()
-        ground = self._ground()
+        ground = self.worlds.ground()
         t1 = clock()
-        ranges, is_robot = self._proximity()
+        ranges, is_robot = self.worlds.proximity()
         t2 = clock()
         command = self.controller.step(ground, ranges, is_robot, self._now())
         t3 = clock()

@@ -14,6 +14,9 @@ swarm_supervisor.batch), with the same numbers in the same order.
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 import pymunk
 import pymunk.batch
@@ -67,7 +70,8 @@ class Physics:
         self._set = self._batched(_WRENCH, self._write)
         self._get = self._batched(_STATE, self._read)
         self._state: np.ndarray | None = None  # a view of the read buffer, once it exists
-        self._scale = (0.0, self._inertia)  # (dt, inertia / dt) of the last step
+        self._scale = (0.0, self._inertia)  # (dt, [count, 3] inertia / dt) of the last step
+        self._rows = np.arange(self.count, dtype=np.int64)  # wrench rows: its own array's
         self._stepped = False
         self.poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
         self.twist = np.zeros((self.count, 3))  # (vx, vy, omega) after the last solve
@@ -81,19 +85,35 @@ class Physics:
         data.intArray = buffer._int_arr
         return data
 
+    def bind(self, wrench: np.ndarray) -> None:
+        """From now on write the wrench into ``wrench`` ([count + 1, 3] float64, C-contiguous:
+        a block of a batch's array, see :class:`PhysicsBatch`) instead of its own array."""
+        self._write.set_float_buf(wrench)
+        self._wrench = wrench
+        self._set = self._batched(_WRENCH, self._write)
+
     def step(self, linear: np.ndarray, angular: np.ndarray, dt: float) -> np.ndarray:
         """Drive every robot at (linear m/s, angular rad/s) for ``dt`` seconds; return poses."""
         if self.count == 0:
             return self.poses
-        wrench = self._wrench[:self.count]
-        heading = self.poses[:, 2]
-        np.multiply(linear, np.cos(heading), out=wrench[:, 0])
-        np.multiply(linear, np.sin(heading), out=wrench[:, 1])
-        wrench[:, 2] = angular
-        wrench -= self.twist
+        _wrench_kernel(np.asarray(linear, dtype=np.float64),
+                       np.asarray(angular, dtype=np.float64),
+                       self.poses, self.twist, self._rows, self._scale_for(dt), self._wrench)
+        state = self.solve(dt)
+        self.poses = state[:, :3].copy()
+        self.twist = state[:, 3:].copy()
+        return self.poses
+
+    def _scale_for(self, dt: float) -> np.ndarray:
+        """[count, 3]: (mass, mass, moment) / dt, the force that reaches a velocity in dt."""
         if self._scale[0] != dt:
-            self._scale = (dt, self._inertia / dt)
-        wrench *= self._scale[1]
+            self._scale = (dt, np.tile(self._inertia / dt, (self.count, 1)))
+        return self._scale[1]
+
+    def solve(self, dt: float) -> np.ndarray:
+        """Apply the wrench array to the bodies, step the space by ``dt`` and return the new
+        state [count, 6] (x, y, angle, vx, vy, omega): a view of pymunk's read buffer, valid
+        until the next step."""
         # pymunk.batch.set_space_bodies: read the buffer from its start, then restore it.
         written = self._write._float_arr
         filled, written.num = written.num, 0
@@ -112,8 +132,60 @@ class Physics:
         capacity = read.max
         lib.cpSpaceEachBody(self.space._space, _GET_BODY, self._get)
         if self._state is None or read.max != capacity:  # first step, or the array moved
-            self._state = np.frombuffer(self._read.float_buf(), dtype=np.float64).reshape(-1, 6)
-        state = self._state
-        self.poses = state[:self.count, :3].copy()
-        self.twist = state[:self.count, 3:].copy()
-        return self.poses
+            self._state = np.frombuffer(self._read.float_buf(),
+                                        dtype=np.float64).reshape(-1, 6)[:self.count]
+        return self._state
+
+
+@numba.njit(cache=True)
+def _wrench_kernel(linear, angular, poses, twist, rows, scale, wrench):  # pragma: no cover
+    """Robot i's wrench into wrench[rows[i]]: the force and torque that take its velocity
+    (twist) to the command (linear along its heading, angular) within one step."""
+    for i in range(linear.shape[0]):
+        row, heading = rows[i], poses[i, 2]
+        wrench[row, 0] = (linear[i] * math.cos(heading) - twist[i, 0]) * scale[i, 0]
+        wrench[row, 1] = (linear[i] * math.sin(heading) - twist[i, 1]) * scale[i, 1]
+        wrench[row, 2] = (angular[i] - twist[i, 2]) * scale[i, 2]
+
+
+class PhysicsBatch:
+    """The spaces of several arenas driven together: one compiled call computes every robot's
+    wrench into one array (each space's write buffer is bound to its block), then each space
+    is stepped alone by pymunk, and every robot's pose lands in one array. A space steps as it
+    would alone: the same wrench, from the same operations, the same solver call."""
+
+    def __init__(self, members: list[Physics]) -> None:
+        self.members = members
+        counts = [member.count for member in members]
+        self.bounds = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+        # Each space's block has one spare row: pymunk also visits the static body.
+        wrench = np.zeros((int(self.bounds[-1]) + len(members), 3))
+        self._rows = np.concatenate([np.arange(count) + lo + e for e, (count, lo)
+                                     in enumerate(zip(counts, self.bounds))]).astype(np.int64)
+        for e, member in enumerate(members):
+            lo, hi = int(self.bounds[e]) + e, int(self.bounds[e + 1]) + e + 1
+            wrench[lo:hi] = member._wrench[:member.count + 1]
+            member.bind(wrench[lo:hi])
+        self._wrench = wrench
+        self._live = [(member, slice(int(lo), int(hi))) for member, lo, hi
+                      in zip(members, self.bounds[:-1], self.bounds[1:]) if member.count]
+        self.poses = np.concatenate([member.poses for member in members])
+        self.twist = np.concatenate([member.twist for member in members])
+        self._scale: tuple[float, np.ndarray] = (0.0, np.zeros((0, 3)))
+
+    def step(self, linear: np.ndarray, angular: np.ndarray, dt: float) -> np.ndarray:
+        """Drive every robot of every space (rows in member order) for ``dt`` seconds; return
+        the new poses [R, 3] (a new array; each member's ``poses`` is its rows of it)."""
+        if self._scale[0] != dt:
+            self._scale = (dt, np.concatenate([member._scale_for(dt)
+                                               for member in self.members]))
+        _wrench_kernel(linear, angular, self.poses, self.twist, self._rows, self._scale[1],
+                       self._wrench)
+        poses, twist = np.empty_like(self.poses), self.twist
+        for member, rows in self._live:
+            state = member.solve(dt)
+            poses[rows] = state[:, :3]
+            twist[rows] = state[:, 3:]
+            member.poses, member.twist = poses[rows], twist[rows]
+        self.poses = poses
+        return poses

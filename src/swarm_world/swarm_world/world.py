@@ -16,8 +16,8 @@ from swarm_world import cue as cue_field
 from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
-from swarm_world.physics import Physics
-from swarm_world.sensors import ground_readings, proximity
+from swarm_world.physics import Physics, PhysicsBatch
+from swarm_world.sensors import _NO_NOISE, _ground_kernel, proximity, proximity_many
 from swarm_world.timing import crossed
 
 
@@ -119,21 +119,29 @@ class World:
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
         poses = self.poses
-        robots = np.arange(len(poses))
-        extra = None
-        if self.noise.ground:
-            extra = self.noise.ground * noise.normals(self.seed, noise.GROUND_STREAM, robots,
-                                                      self.steps, 2)
-        ground = ground_readings(self.sensed_field(), self.params.cell_size, poses,
-                                 self.mona.wheel_separation, extra)
+        ground = self.ground(poses, np.empty((len(poses), 2), dtype=np.uint8))
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
                                      self.mona.ir_range, self.params.arena_side)
         if self.noise.ir_miss:
-            missed = noise.uniforms(self.seed, noise.IR_STREAM, robots, self.steps,
-                                    ranges.shape[1]) < self.noise.ir_miss
-            ranges[missed] = np.inf
-            is_robot[missed] = False
+            self.miss_beams(ranges, is_robot)
         return Readings(self.time_ns, ground, ranges, is_robot)
+
+    def ground(self, poses: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """The ground readings of robots at ``poses`` (this world's robots, now) into ``out``
+        [N, 2] uint8, with this step's sensor noise if any."""
+        extra = _NO_NOISE
+        if self.noise.ground:  # the world's counter-based stream: the same in any runner
+            extra = self.noise.ground * noise.normals(
+                self.seed, noise.GROUND_STREAM, np.arange(len(poses)), self.steps, 2)
+        return _ground_kernel(self.sensed_field(), self.params.cell_size, poses,
+                              self.mona.wheel_separation / 2, extra, out)
+
+    def miss_beams(self, ranges: np.ndarray, is_robot: np.ndarray) -> None:
+        """Drop this step's missed IR beams (noise ``ir_miss``) from this world's readings."""
+        missed = noise.uniforms(self.seed, noise.IR_STREAM, np.arange(len(ranges)),
+                                self.steps, ranges.shape[1]) < self.noise.ir_miss
+        ranges[missed] = np.inf
+        is_robot[missed] = False
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
         """Advance one step with these commands; clean on each cleaning-period boundary.
@@ -143,14 +151,24 @@ class World:
             angular: [N] turn rates (rad/s, counter-clockwise).
             cleaner: [N] bool, the cleaning actuators.
         """
-        self.cleaning = np.asarray(cleaner, dtype=bool)
-        if self.noise.wheel and self.population:
-            error = self.noise.wheel * noise.normals(self.seed, noise.WHEEL_STREAM,
-                                                     np.arange(self.population), self.steps, 2)
-            linear, angular = noise.noisy_wheels(np.asarray(linear, dtype=np.float64),
-                                                 np.asarray(angular, dtype=np.float64),
-                                                 self.mona.wheel_separation, error)
+        linear, angular = self.wheels(np.asarray(linear, dtype=np.float64),
+                                      np.asarray(angular, dtype=np.float64))
         self.physics.step(linear, angular, self.params.step_period)
+        self.moved(cleaner)
+
+    def wheels(self, linear: np.ndarray, angular: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The speeds the wheels deliver for the commanded (linear, angular): with wheel noise,
+        each wheel's error of this step added; without, the command itself."""
+        if not self.noise.wheel or not self.population:
+            return linear, angular
+        error = self.noise.wheel * noise.normals(self.seed, noise.WHEEL_STREAM,
+                                                 np.arange(self.population), self.steps, 2)
+        return noise.noisy_wheels(linear, angular, self.mona.wheel_separation, error)
+
+    def moved(self, cleaner: np.ndarray) -> None:
+        """The rest of a step, once the physics has moved the robots: the clock advances,
+        robots clean on a cleaning-period boundary (eq. 3), the cue's transport runs."""
+        self.cleaning = np.asarray(cleaner, dtype=bool)
         before = self.time_ns
         self.steps += 1
         self.time_ns = self.steps * self._step_ns
@@ -159,5 +177,69 @@ class World:
             self.cleaned = np.flatnonzero(self.cleaning)
             self.field.clean_at(self.time_ns, self.poses[self.cleaned])  # eq. 3, robot order
             self._sensed = None
-        if self.field.advance_to(self.time_ns):  # diffusion, evaporation, emission
-            self._sensed = None
+        if self.field.advance_to(self.time_ns):
+            self._sensed = None  # diffusion, evaporation, emission changed the cue
+
+
+class WorldBatch:
+    """Several worlds stepped as one (the batched engine's world side): their robots' poses in
+    one array, the IR ring of all of them cast in one compiled call, their physics driven by
+    one :class:`PhysicsBatch`. Each world's readings and motion are those of its own
+    :meth:`World.sense` and :meth:`World.step`: the same kernels on its own rows, its own
+    noise streams, its own space, field and clock.
+
+    The worlds must share the step period and the number of IR beams; they must not be reset
+    or stepped on their own while the batch steps them.
+    """
+
+    def __init__(self, worlds: list[World]) -> None:
+        self.worlds = worlds
+        counts = np.array([world.population for world in worlds], dtype=np.int64)
+        self.bounds = np.concatenate(([0], np.cumsum(counts)))
+        self.slices = [slice(int(lo), int(hi))
+                       for lo, hi in zip(self.bounds[:-1], self.bounds[1:])]
+        self.physics = PhysicsBatch([world.physics for world in worlds])
+        self._step_period = worlds[0].params.step_period if worlds else 0.0
+        monas = [world.mona for world in worlds]
+        self._ir = (np.array([mona.body_radius for mona in monas]),
+                    np.array([world.bearings for world in worlds]),
+                    np.array([mona.ir_range for mona in monas]),
+                    np.array([world.params.arena_side for world in worlds]))
+        self._noisy_wheels = [(world, rows) for world, rows in zip(worlds, self.slices)
+                              if world.noise.wheel]
+
+    @property
+    def poses(self) -> np.ndarray:
+        """[R, 3] every robot's pose, world after world."""
+        return self.physics.poses
+
+    def sense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every robot's readings now, world after world: (ground [R, 2] uint8, ranges
+        [R, K] float32, is_robot [R, K]); each world's rows equal its :meth:`World.sense`."""
+        return (self.ground(), *self.proximity())
+
+    def ground(self) -> np.ndarray:
+        """:meth:`sense`'s ground readings."""
+        ground = np.empty((int(self.bounds[-1]), 2), dtype=np.uint8)
+        for world, rows in zip(self.worlds, self.slices):
+            world.ground(world.poses, ground[rows])
+        return ground
+
+    def proximity(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`sense`'s IR readings (ranges, is_robot)."""
+        ranges, is_robot = proximity_many(self.poses, self.bounds, *self._ir)
+        for world, rows in zip(self.worlds, self.slices):
+            if world.noise.ir_miss:
+                world.miss_beams(ranges[rows], is_robot[rows])
+        return ranges, is_robot
+
+    def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
+        """Step every world once: robot rows as in :meth:`sense`, arguments as
+        :meth:`World.step`'s."""
+        if self._noisy_wheels:
+            linear, angular = linear.copy(), angular.copy()
+            for world, rows in self._noisy_wheels:
+                linear[rows], angular[rows] = world.wheels(linear[rows], angular[rows])
+        self.physics.step(linear, angular, self._step_period)
+        for world, rows in zip(self.worlds, self.slices):
+            world.moved(cleaner[rows])
