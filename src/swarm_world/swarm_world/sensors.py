@@ -96,6 +96,14 @@ def _cell_of(coordinate, width, columns):  # pragma: no cover - jitted
     return min(int(coordinate / width), columns - 1)
 
 
+#: A beam is skipped on its approximate direction only when it misses by more than this (m,
+#: m^2): the approximation is within 1e-12 of the exact direction (headings below
+#: _TRUSTED_HEADING), so the exact test would skip it too.
+_MARGIN = 1e-9
+#: Above this |heading| (rad) every beam's direction is computed exactly.
+_TRUSTED_HEADING = 1e4
+
+
 @numba.njit(cache=True)
 def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
                       is_robot):  # pragma: no cover - jitted
@@ -110,19 +118,28 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
     columns, _, start, members = _cell_lists(poses, arena_side,
                                              2.0 * body_radius + ir_range)
     width = arena_side / columns
-    ux = np.empty(k)
+    ux = np.empty(k)  # the exact beam directions, cos and sin of (heading + bearing)
     uy = np.empty(k)
+    exact = np.empty(k, dtype=np.bool_)  # ux, uy hold beam b's exact direction
+    ax = np.empty(k)  # approximate directions, by the angle sum from the heading's
+    ay = np.empty(k)
+    cos_bearing, sin_bearing = np.cos(bearings), np.sin(bearings)
     for i in range(n):
         x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
         near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
-        # The beam directions cost most of a lone robot's time: work them out only once a
-        # wall or a neighbour is close (same expression, so the same values, as before).
-        aimed = near_wall
+        # The exact directions (10 trigonometric calls) cost most of a robot's time: they are
+        # worked out for every beam near a wall, else only for a beam that may hit a
+        # neighbour by its approximate direction (2 calls per robot), so the readings are
+        # those of the exact directions.
+        approximate = not near_wall and abs(heading) < _TRUSTED_HEADING
+        aimed = False
         for b in range(k):
             hit[i, b] = np.inf
             is_robot[i, b] = False
-            if near_wall:
+            exact[b] = not approximate
+            if not approximate:
                 ux[b], uy[b] = math.cos(heading + bearings[b]), math.sin(heading + bearings[b])
+            if near_wall:
                 tx = (arena_side - x) / ux[b] if ux[b] > 0 else (
                     -x / ux[b] if ux[b] < 0 else np.inf)
                 ty = (arena_side - y) / uy[b] if uy[b] > 0 else (
@@ -139,12 +156,21 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
                     distance_sq = dx * dx + dy * dy
                     if j == i or distance_sq >= close:
                         continue
-                    if not aimed:
+                    if approximate and not aimed:
+                        ch, sh = math.cos(heading), math.sin(heading)
                         for b in range(k):
-                            ux[b] = math.cos(heading + bearings[b])
-                            uy[b] = math.sin(heading + bearings[b])
+                            ax[b] = ch * cos_bearing[b] - sh * sin_bearing[b]
+                            ay[b] = sh * cos_bearing[b] + ch * sin_bearing[b]
                         aimed = True
                     for b in range(k):
+                        if not exact[b]:
+                            along = ax[b] * dx + ay[b] * dy
+                            if (along < -_MARGIN
+                                    or along * along - (distance_sq - radius_sq) < -_MARGIN):
+                                continue  # misses for sure: no need of the exact direction
+                            ux[b] = math.cos(heading + bearings[b])
+                            uy[b] = math.sin(heading + bearings[b])
+                            exact[b] = True
                         along = ux[b] * dx + uy[b] * dy  # the other centre on the beam
                         disc = along * along - (distance_sq - radius_sq)
                         if disc < 0.0 or along <= 0.0:
