@@ -54,6 +54,18 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
 
 
 @numba.njit(cache=True)
+def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, noise, noisy,
+                        out):  # pragma: no cover - jitted
+    # Each arena's robots [bounds[e], bounds[e + 1]) on its own field, by the one-arena
+    # kernel on their own rows: the same arithmetic, so the same readings, as alone.
+    for e in range(bounds.shape[0] - 1):
+        lo, hi = bounds[e], bounds[e + 1]
+        _ground_kernel(fields[e], cell_size[e], poses[lo:hi], half_separation[e],
+                       noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
+    return out
+
+
+@numba.njit(cache=True)
 def _cell_lists(poses, arena_side, min_width):  # pragma: no cover - jitted
     """Bucket the robots into a uniform grid of square cells at least ``min_width`` wide.
 

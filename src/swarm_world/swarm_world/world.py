@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numba
 import numpy as np
 
 from mona_controller.mona import MonaParams
@@ -17,7 +18,8 @@ from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import _NO_NOISE, _ground_kernel, proximity, proximity_many
+from swarm_world.sensors import (_NO_NOISE, _ground_kernel, _ground_many_kernel, proximity,
+                                 proximity_many)
 from swarm_world.timing import crossed
 
 
@@ -129,12 +131,15 @@ class World:
     def ground(self, poses: np.ndarray, out: np.ndarray) -> np.ndarray:
         """The ground readings of robots at ``poses`` (this world's robots, now) into ``out``
         [N, 2] uint8, with this step's sensor noise if any."""
-        extra = _NO_NOISE
-        if self.noise.ground:  # the world's counter-based stream: the same in any runner
-            extra = self.noise.ground * noise.normals(
-                self.seed, noise.GROUND_STREAM, np.arange(len(poses)), self.steps, 2)
+        extra = self.ground_noise() if self.noise.ground else _NO_NOISE
         return _ground_kernel(self.sensed_field(), self.params.cell_size, poses,
                               self.mona.wheel_separation / 2, extra, out)
+
+    def ground_noise(self) -> np.ndarray:
+        """[N, 2] this step's ground-sensor noise (cue units): the world's counter-based
+        stream, the same in any runner."""
+        return self.noise.ground * noise.normals(self.seed, noise.GROUND_STREAM,
+                                                 np.arange(self.population), self.steps, 2)
 
     def miss_beams(self, ranges: np.ndarray, is_robot: np.ndarray) -> None:
         """Drop this step's missed IR beams (noise ``ir_miss``) from this world's readings."""
@@ -207,6 +212,15 @@ class WorldBatch:
                     np.array([world.params.arena_side for world in worlds]))
         self._noisy_wheels = [(world, rows) for world, rows in zip(worlds, self.slices)
                               if world.noise.wheel]
+        self._noisy_ground = [(world, rows) for world, rows in zip(worlds, self.slices)
+                              if world.noise.ground]
+        self._ground_noisy = np.array([bool(world.noise.ground) for world in worlds])
+        self._ground = (np.array([world.params.cell_size for world in worlds]),
+                        np.array([world.mona.wheel_separation / 2 for world in worlds]))
+        # Each world's sensed field, in one list the compiled kernel takes, replaced when the
+        # world's is a new array (a typed list returns new wrappers: compare the plain list's).
+        self._field_list = [world.sensed_field() for world in worlds]
+        self._fields = numba.typed.List(self._field_list)
 
     @property
     def poses(self) -> np.ndarray:
@@ -220,10 +234,18 @@ class WorldBatch:
 
     def ground(self) -> np.ndarray:
         """:meth:`sense`'s ground readings."""
-        ground = np.empty((int(self.bounds[-1]), 2), dtype=np.uint8)
-        for world, rows in zip(self.worlds, self.slices):
-            world.ground(world.poses, ground[rows])
-        return ground
+        for e, world in enumerate(self.worlds):
+            field = world.sensed_field()
+            if field is not self._field_list[e]:  # a new array (footprint, transport)
+                self._field_list[e] = self._fields[e] = field
+        noisy = self._ground_noisy
+        extra = _NO_NOISE
+        if noisy.any():
+            extra = np.zeros((int(self.bounds[-1]), 2))
+            for world, rows in self._noisy_ground:
+                extra[rows] = world.ground_noise()
+        return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses, extra,
+                                   noisy, np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
 
     def proximity(self) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`sense`'s IR readings (ranges, is_robot)."""
