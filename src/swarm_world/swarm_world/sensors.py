@@ -117,7 +117,7 @@ _TRUSTED_HEADING = 1e4
 
 
 @numba.njit(cache=True)
-def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
+def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
                       is_robot):  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
     reach = body_radius + ir_range  # a beam's end, from the robot centre
@@ -136,6 +136,7 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
     ax = np.empty(k)  # approximate directions, by the angle sum from the heading's
     ay = np.empty(k)
     cos_bearing, sin_bearing = np.cos(bearings), np.sin(bearings)
+    hit = np.empty(k)  # robot i's nearest obstacle per beam, from its centre
     for i in range(n):
         x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
         near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
@@ -146,7 +147,7 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
         approximate = not near_wall and abs(heading) < _TRUSTED_HEADING
         aimed = False
         for b in range(k):
-            hit[i, b] = np.inf
+            hit[b] = np.inf
             is_robot[i, b] = False
             exact[b] = not approximate
             if not approximate:
@@ -157,7 +158,7 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
                 ty = (arena_side - y) / uy[b] if uy[b] > 0 else (
                     -y / uy[b] if uy[b] < 0 else np.inf)
                 if min(tx, ty) <= reach:
-                    hit[i, b] = min(tx, ty)
+                    hit[b] = min(tx, ty)
         col, row = _cell_of(x, width, columns), _cell_of(y, width, columns)
         for r in range(max(row - 1, 0), min(row + 2, columns)):
             for c in range(max(col - 1, 0), min(col + 2, columns)):
@@ -188,10 +189,13 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, hit,
                         if disc < 0.0 or along <= 0.0:
                             continue  # the beam misses the disc, or points away from it
                         t = max(along - math.sqrt(disc), 0.0)  # 0 when the bodies overlap
-                        if t <= reach and t < hit[i, b]:
-                            hit[i, b] = t
+                        if t <= reach and t < hit[b]:
+                            hit[b] = t
                             is_robot[i, b] = True
-    return hit, is_robot
+        for b in range(k):  # from the body edge; NaN stays NaN
+            edge = hit[b] - body_radius
+            ranges[i, b] = np.float32(0.0 if edge < 0.0 else edge)
+    return ranges, is_robot
 
 
 def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_range: float,
@@ -204,23 +208,22 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
         is_robot: [N, K] bool, True where that obstacle is another robot.
     """
     n, k = len(poses), len(bearings)
-    hit, is_robot = _proximity_kernel(
+    return _proximity_kernel(
         np.ascontiguousarray(poses, dtype=np.float64), body_radius,
         np.ascontiguousarray(bearings, dtype=np.float64), ir_range, arena_side,
-        np.empty((n, k)), np.empty((n, k), dtype=np.bool_))
-    return np.maximum(hit - body_radius, 0.0).astype(np.float32), is_robot
+        np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_))
 
 
 @numba.njit(cache=True)
-def _proximity_many_kernel(poses, bounds, body_radius, bearings, ir_range, arena_side, hit,
+def _proximity_many_kernel(poses, bounds, body_radius, bearings, ir_range, arena_side, ranges,
                            is_robot):  # pragma: no cover - jitted
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         _proximity_kernel(poses[lo:hi], body_radius[e], bearings[e], ir_range[e],
-                          arena_side[e], hit[lo:hi], is_robot[lo:hi])
-    return hit, is_robot
+                          arena_side[e], ranges[lo:hi], is_robot[lo:hi])
+    return ranges, is_robot
 
 
 def proximity_many(poses: np.ndarray, bounds: np.ndarray, body_radius: np.ndarray,
@@ -239,9 +242,7 @@ def proximity_many(poses: np.ndarray, bounds: np.ndarray, body_radius: np.ndarra
         :func:`proximity` of that arena alone.
     """
     n, k = len(poses), bearings.shape[1]
-    hit, is_robot = _proximity_many_kernel(
+    return _proximity_many_kernel(
         np.ascontiguousarray(poses, dtype=np.float64), bounds, body_radius,
         np.ascontiguousarray(bearings, dtype=np.float64), ir_range, arena_side,
-        np.empty((n, k)), np.empty((n, k), dtype=np.bool_))
-    radius = np.repeat(body_radius, np.diff(bounds))[:, None]
-    return np.maximum(hit - radius, 0.0).astype(np.float32), is_robot
+        np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_))
