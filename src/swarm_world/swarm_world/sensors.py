@@ -66,36 +66,42 @@ def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, noise
 
 
 @numba.njit(cache=True)
-def _cell_lists(poses, arena_side, min_width):  # pragma: no cover - jitted
+def _cell_lists(poses, arena_side, min_width, cell, start, members):  # pragma: no cover
     """Bucket the robots into a uniform grid of square cells at least ``min_width`` wide.
 
-    Returns (columns, width, start, members): the robots of cell c = row * columns + col are
-    ``members[start[c]:start[c + 1]]``, in index order (a counting sort). Robots outside the
-    arena (within the collision slop, or NaN) go to the nearest edge cell, which only widens
-    that cell, so two robots closer than ``min_width`` are always in the same or adjacent
-    cells.
+    Returns (columns, width): the robots of cell c = row * columns + col are
+    ``members[start[c]:start[c + 1]]``, in index order (a counting sort into the caller's
+    ``cell`` [n], ``start`` [at least _most_cells(n) + 1] and ``members`` [n]). Robots outside
+    the arena (within the collision slop, or NaN) go to the nearest edge cell, which only
+    widens that cell, so two robots closer than ``min_width`` are always in the same or
+    adjacent cells.
     """
     n = poses.shape[0]
     # Never more cells than about 16 per robot: a big sparse arena would otherwise spend a
     # step clearing empty cells. Wider cells are still correct, only less selective (at the
     # paper's density the cap never binds: 10,000 robots fill 366 x 366 cells of 11 cm).
-    columns = max(min(int(arena_side / min_width), int(math.sqrt(16.0 * n)) + 1), 1)
+    columns = max(min(int(arena_side / min_width), _most_columns(n)), 1)
     width = arena_side / columns
-    cell = np.empty(n, dtype=np.int64)
-    start = np.zeros(columns * columns + 1, dtype=np.int64)
+    cells = columns * columns
+    start[:cells + 1] = 0
     for i in range(n):
         col = _cell_of(poses[i, 0], width, columns)
         row = _cell_of(poses[i, 1], width, columns)
         cell[i] = row * columns + col
-        start[cell[i] + 1] += 1
-    for c in range(columns * columns):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    members = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        members[fill[cell[i]]] = i
-        fill[cell[i]] += 1
-    return columns, width, start, members
+        start[cell[i]] += 1
+    for c in range(1, cells):  # start[c]: the end of cell c
+        start[c] += start[c - 1]
+    start[cells] = n
+    for i in range(n - 1, -1, -1):  # fill each cell from its end: start[c] becomes its start
+        start[cell[i]] -= 1
+        members[start[cell[i]]] = i
+    return columns, width
+
+
+@numba.njit(cache=True)
+def _most_columns(n):  # pragma: no cover - jitted
+    """The most grid columns :func:`_cell_lists` uses for n robots."""
+    return int(math.sqrt(16.0 * n)) + 1
 
 
 @numba.njit(cache=True)
@@ -120,6 +126,30 @@ _TRUSTED_HEADING = 1e4
 def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
                       is_robot):  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
+    return _cast(poses, body_radius, bearings, ir_range, arena_side, ranges, is_robot,
+                 *_scratch(n, k))
+
+
+@numba.njit(cache=True)
+def _scratch(n, k):  # pragma: no cover - jitted
+    """The work arrays of :func:`_cast` for up to n robots and k beams (allocated once per
+    call of a kernel, not once per arena)."""
+    columns = _most_columns(n)
+    return (np.empty(n, dtype=np.int64), np.empty(columns * columns + 1, dtype=np.int64),
+            np.empty(n, dtype=np.int64), np.empty((_BEAM_ROWS, k)),
+            np.empty(k, dtype=np.bool_))
+
+
+# The rows of _cast's per-beam work array.
+_UX, _UY, _AX, _AY, _HIT, _COS_BEARING, _SIN_BEARING = range(7)
+_BEAM_ROWS = 7
+
+
+@numba.njit(cache=True)
+def _cast(poses, body_radius, bearings, ir_range, arena_side, ranges, is_robot, cell, start,
+          members, beams, exact):  # pragma: no cover - jitted
+    """One arena's IR ring into ranges and is_robot, in the given work arrays."""
+    n, k = poses.shape[0], bearings.shape[0]
     reach = body_radius + ir_range  # a beam's end, from the robot centre
     close = (2.0 * body_radius + ir_range) ** 2  # farther centres cannot be seen
     radius_sq = body_radius * body_radius
@@ -127,16 +157,15 @@ def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges
     # is O(N) for a swarm at bounded density instead of O(N^2). The per-pair arithmetic is the
     # all-pairs loop's, and a beam keeps the nearest hit whatever the order robots are met in,
     # so the readings are bit for bit those of the all-pairs loop.
-    columns, _, start, members = _cell_lists(poses, arena_side,
-                                             2.0 * body_radius + ir_range)
-    width = arena_side / columns
-    ux = np.empty(k)  # the exact beam directions, cos and sin of (heading + bearing)
-    uy = np.empty(k)
-    exact = np.empty(k, dtype=np.bool_)  # ux, uy hold beam b's exact direction
-    ax = np.empty(k)  # approximate directions, by the angle sum from the heading's
-    ay = np.empty(k)
-    cos_bearing, sin_bearing = np.cos(bearings), np.sin(bearings)
-    hit = np.empty(k)  # robot i's nearest obstacle per beam, from its centre
+    columns, width = _cell_lists(poses, arena_side, 2.0 * body_radius + ir_range, cell, start,
+                                 members)
+    # Per beam: the exact directions, cos and sin of (heading + bearing) (exact[b]: worked
+    # out), approximate ones by the angle sum from the heading's, robot i's nearest obstacle
+    # from its centre, and the bearings' cosines and sines.
+    ux, uy, ax, ay, hit = beams[_UX], beams[_UY], beams[_AX], beams[_AY], beams[_HIT]
+    cos_bearing, sin_bearing = beams[_COS_BEARING], beams[_SIN_BEARING]
+    for b in range(k):
+        cos_bearing[b], sin_bearing[b] = math.cos(bearings[b]), math.sin(bearings[b])
     for i in range(n):
         x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
         near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
@@ -219,10 +248,14 @@ def _proximity_many_kernel(poses, bounds, body_radius, bearings, ir_range, arena
                            is_robot):  # pragma: no cover - jitted
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
+    most = 0
+    for e in range(bounds.shape[0] - 1):
+        most = max(most, bounds[e + 1] - bounds[e])
+    work = _scratch(most, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
-        _proximity_kernel(poses[lo:hi], body_radius[e], bearings[e], ir_range[e],
-                          arena_side[e], ranges[lo:hi], is_robot[lo:hi])
+        _cast(poses[lo:hi], body_radius[e], bearings[e], ir_range[e], arena_side[e],
+              ranges[lo:hi], is_robot[lo:hi], *work)
     return ranges, is_robot
 
 
