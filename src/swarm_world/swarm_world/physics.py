@@ -14,13 +14,13 @@ swarm_supervisor.batch), with the same numbers in the same order.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 import pymunk
 import pymunk.batch
 from pymunk._chipmunk_cffi import ffi, lib
+
+from swarm_world.sensors import heading_trig
 
 BODY_MASS = 0.1  # kg; only the ratio between robots matters, and all are equal
 WALL_THICKNESS = 0.05  # m, outside the arena so the inner faces sit exactly on its edges
@@ -97,8 +97,8 @@ class Physics:
         if self.count == 0:
             return self.poses
         _wrench_kernel(np.asarray(linear, dtype=np.float64),
-                       np.asarray(angular, dtype=np.float64),
-                       self.poses, self.twist, self._rows, self._scale_for(dt), self._wrench)
+                       np.asarray(angular, dtype=np.float64), heading_trig(self.poses),
+                       self.twist, self._rows, self._scale_for(dt), self._wrench)
         state = self.solve(dt)
         self.poses = state[:, :3].copy()
         self.twist = state[:, 3:].copy()
@@ -138,13 +138,14 @@ class Physics:
 
 
 @numba.njit(cache=True)
-def _wrench_kernel(linear, angular, poses, twist, rows, scale, wrench):  # pragma: no cover
+def _wrench_kernel(linear, angular, trig, twist, rows, scale, wrench):  # pragma: no cover
     """Robot i's wrench into wrench[rows[i]]: the force and torque that take its velocity
-    (twist) to the command (linear along its heading, angular) within one step."""
+    (twist) to the command (linear along its heading, whose cos and sin are trig[i], and
+    angular) within one step."""
     for i in range(linear.shape[0]):
-        row, heading = rows[i], poses[i, 2]
-        wrench[row, 0] = (linear[i] * math.cos(heading) - twist[i, 0]) * scale[i, 0]
-        wrench[row, 1] = (linear[i] * math.sin(heading) - twist[i, 1]) * scale[i, 1]
+        row = rows[i]
+        wrench[row, 0] = (linear[i] * trig[i, 0] - twist[i, 0]) * scale[i, 0]
+        wrench[row, 1] = (linear[i] * trig[i, 1] - twist[i, 1]) * scale[i, 1]
         wrench[row, 2] = (angular[i] - twist[i, 2]) * scale[i, 2]
 
 
@@ -173,13 +174,15 @@ class PhysicsBatch:
         self.twist = np.concatenate([member.twist for member in members])
         self._scale: tuple[float, np.ndarray] = (0.0, np.zeros((0, 3)))
 
-    def step(self, linear: np.ndarray, angular: np.ndarray, dt: float) -> np.ndarray:
+    def step(self, linear: np.ndarray, angular: np.ndarray, dt: float,
+             trig: np.ndarray) -> np.ndarray:
         """Drive every robot of every space (rows in member order) for ``dt`` seconds; return
-        the new poses [R, 3] (a new array; each member's ``poses`` is its rows of it)."""
+        the new poses [R, 3] (a new array; each member's ``poses`` is its rows of it).
+        ``trig``: :func:`~swarm_world.sensors.heading_trig` of the poses now."""
         if self._scale[0] != dt:
             self._scale = (dt, np.concatenate([member._scale_for(dt)
                                                for member in self.members]))
-        _wrench_kernel(linear, angular, self.poses, self.twist, self._rows, self._scale[1],
+        _wrench_kernel(linear, angular, trig, self.twist, self._rows, self._scale[1],
                        self._wrench)
         poses, twist = np.empty_like(self.poses), self.twist
         for member, rows in self._live:

@@ -22,14 +22,25 @@ _NO_NOISE = np.zeros((0, 2))
 
 
 @numba.njit(cache=True)
-def _ground_kernel(cue, cell_size, poses, half_separation, noise, out):  # pragma: no cover
+def heading_trig(poses):  # pragma: no cover - jitted
+    """[N, 2]: each robot's (cos, sin) of its heading. The ground sensors, the IR ring and the
+    wheels' force all need them; a batch works them out once per step for all three."""
+    trig = np.empty((poses.shape[0], 2))
+    for i in range(poses.shape[0]):
+        trig[i, 0], trig[i, 1] = math.cos(poses[i, 2]), math.sin(poses[i, 2])
+    return trig
+
+
+@numba.njit(cache=True)
+def _ground_kernel(cue, cell_size, poses, trig, half_separation, noise,
+                   out):  # pragma: no cover - jitted
     last = cue.shape[0] - 1
     noisy = noise.shape[0] > 0
     for i in range(poses.shape[0]):
-        x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
+        x, y = poses[i, 0], poses[i, 1]
         # The left wheel is at +y in the body frame (REP 103): offset (-sin, cos) * half.
-        ox = -math.sin(heading) * half_separation
-        oy = math.cos(heading) * half_separation
+        ox = -trig[i, 1] * half_separation
+        oy = trig[i, 0] * half_separation
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
             col = min(max(math.floor((x + sign * ox) / cell_size), 0), last)
@@ -49,18 +60,19 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
     """
     out = np.empty((len(poses), 2), dtype=np.uint8)
     noise = _NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
-    return _ground_kernel(cue, cell_size, np.ascontiguousarray(poses, dtype=np.float64),
-                          wheel_separation / 2, noise, out)
+    poses = np.ascontiguousarray(poses, dtype=np.float64)
+    return _ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
+                          noise, out)
 
 
 @numba.njit(cache=True)
-def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, noise, noisy,
+def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, noise, noisy,
                         out):  # pragma: no cover - jitted
     # Each arena's robots [bounds[e], bounds[e + 1]) on its own field, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
-        _ground_kernel(fields[e], cell_size[e], poses[lo:hi], half_separation[e],
+        _ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
                        noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
     return out
 
@@ -126,8 +138,8 @@ _TRUSTED_HEADING = 1e4
 def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
                       is_robot):  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
-    return _cast(poses, body_radius, bearings, ir_range, arena_side, ranges, is_robot,
-                 *_scratch(n, k))
+    return _cast(poses, heading_trig(poses), body_radius, bearings, ir_range, arena_side,
+                 ranges, is_robot, *_scratch(n, k))
 
 
 @numba.njit(cache=True)
@@ -146,8 +158,8 @@ _BEAM_ROWS = 7
 
 
 @numba.njit(cache=True)
-def _cast(poses, body_radius, bearings, ir_range, arena_side, ranges, is_robot, cell, start,
-          members, beams, exact):  # pragma: no cover - jitted
+def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, ranges, is_robot, cell,
+          start, members, beams, exact):  # pragma: no cover - jitted
     """One arena's IR ring into ranges and is_robot, in the given work arrays."""
     n, k = poses.shape[0], bearings.shape[0]
     reach = body_radius + ir_range  # a beam's end, from the robot centre
@@ -199,7 +211,7 @@ def _cast(poses, body_radius, bearings, ir_range, arena_side, ranges, is_robot, 
                     if j == i or distance_sq >= close:
                         continue
                     if approximate and not aimed:
-                        ch, sh = math.cos(heading), math.sin(heading)
+                        ch, sh = trig[i, 0], trig[i, 1]
                         for b in range(k):
                             ax[b] = ch * cos_bearing[b] - sh * sin_bearing[b]
                             ay[b] = sh * cos_bearing[b] + ch * sin_bearing[b]
@@ -244,8 +256,8 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
 
 
 @numba.njit(cache=True)
-def _proximity_many_kernel(poses, bounds, body_radius, bearings, ir_range, arena_side, ranges,
-                           is_robot):  # pragma: no cover - jitted
+def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range, arena_side,
+                           ranges, is_robot):  # pragma: no cover - jitted
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
     most = 0
@@ -254,18 +266,19 @@ def _proximity_many_kernel(poses, bounds, body_radius, bearings, ir_range, arena
     work = _scratch(most, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
-        _cast(poses[lo:hi], body_radius[e], bearings[e], ir_range[e], arena_side[e],
-              ranges[lo:hi], is_robot[lo:hi], *work)
+        _cast(poses[lo:hi], trig[lo:hi], body_radius[e], bearings[e], ir_range[e],
+              arena_side[e], ranges[lo:hi], is_robot[lo:hi], *work)
     return ranges, is_robot
 
 
-def proximity_many(poses: np.ndarray, bounds: np.ndarray, body_radius: np.ndarray,
-                   bearings: np.ndarray, ir_range: np.ndarray, arena_side: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def proximity_many(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
+                   body_radius: np.ndarray, bearings: np.ndarray, ir_range: np.ndarray,
+                   arena_side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`proximity` for several arenas at once, in one call (the batched engine).
 
     Args:
         poses: [N, 3] the robots of every arena, arena after arena.
+        trig: [N, 2] float64 their :func:`heading_trig`.
         bounds: [E + 1] int64, arena e holds robots ``bounds[e]:bounds[e + 1]``.
         body_radius, ir_range, arena_side: [E] each arena's.
         bearings: [E, K] each arena's IR bearings (the same number of beams in all).
@@ -276,6 +289,6 @@ def proximity_many(poses: np.ndarray, bounds: np.ndarray, body_radius: np.ndarra
     """
     n, k = len(poses), bearings.shape[1]
     return _proximity_many_kernel(
-        np.ascontiguousarray(poses, dtype=np.float64), bounds, body_radius,
+        np.ascontiguousarray(poses, dtype=np.float64), trig, bounds, body_radius,
         np.ascontiguousarray(bearings, dtype=np.float64), ir_range, arena_side,
         np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_))

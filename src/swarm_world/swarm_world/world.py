@@ -18,8 +18,8 @@ from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import (_NO_NOISE, _ground_kernel, _ground_many_kernel, proximity,
-                                 proximity_many)
+from swarm_world.sensors import (_NO_NOISE, _ground_kernel, _ground_many_kernel, heading_trig,
+                                 proximity, proximity_many)
 from swarm_world.timing import crossed
 
 
@@ -133,7 +133,7 @@ class World:
         [N, 2] uint8, with this step's sensor noise if any."""
         extra = self.ground_noise() if self.noise.ground else _NO_NOISE
         return _ground_kernel(self.sensed_field(), self.params.cell_size, poses,
-                              self.mona.wheel_separation / 2, extra, out)
+                              heading_trig(poses), self.mona.wheel_separation / 2, extra, out)
 
     def ground_noise(self) -> np.ndarray:
         """[N, 2] this step's ground-sensor noise (cue units): the world's counter-based
@@ -212,6 +212,7 @@ class WorldBatch:
                     np.array([world.params.arena_side for world in worlds]))
         self._noisy_wheels = [(world, rows) for world, rows in zip(worlds, self.slices)
                               if world.noise.wheel]
+        self._trig: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))
         self._noisy_ground = [(world, rows) for world, rows in zip(worlds, self.slices)
                               if world.noise.ground]
         self._ground_noisy = np.array([bool(world.noise.ground) for world in worlds])
@@ -226,6 +227,14 @@ class WorldBatch:
     def poses(self) -> np.ndarray:
         """[R, 3] every robot's pose, world after world."""
         return self.physics.poses
+
+    def trig(self) -> np.ndarray:
+        """[R, 2] :func:`heading_trig` of :attr:`poses`: worked out once per step for the
+        ground sensors, the IR ring and the wheels' force."""
+        poses = self.physics.poses
+        if self._trig[0] is not poses:
+            self._trig = (poses, heading_trig(poses))
+        return self._trig[1]
 
     def sense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every robot's readings now, world after world: (ground [R, 2] uint8, ranges
@@ -244,12 +253,13 @@ class WorldBatch:
             extra = np.zeros((int(self.bounds[-1]), 2))
             for world, rows in self._noisy_ground:
                 extra[rows] = world.ground_noise()
-        return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses, extra,
-                                   noisy, np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
+        return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
+                                   self.trig(), extra, noisy,
+                                   np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
 
     def proximity(self) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`sense`'s IR readings (ranges, is_robot)."""
-        ranges, is_robot = proximity_many(self.poses, self.bounds, *self._ir)
+        ranges, is_robot = proximity_many(self.poses, self.trig(), self.bounds, *self._ir)
         for world, rows in zip(self.worlds, self.slices):
             if world.noise.ir_miss:
                 world.miss_beams(ranges[rows], is_robot[rows])
@@ -262,6 +272,6 @@ class WorldBatch:
             linear, angular = linear.copy(), angular.copy()
             for world, rows in self._noisy_wheels:
                 linear[rows], angular[rows] = world.wheels(linear[rows], angular[rows])
-        self.physics.step(linear, angular, self._step_period)
+        self.physics.step(linear, angular, self._step_period, self.trig())
         for world, rows in zip(self.worlds, self.slices):
             world.moved(cleaner[rows])
