@@ -173,16 +173,17 @@ class World:
     def moved(self, cleaner: np.ndarray) -> None:
         """The rest of a step, once the physics has moved the robots: the clock advances,
         robots clean on a cleaning-period boundary (eq. 3), the cue's transport runs."""
-        self.cleaning = np.asarray(cleaner, dtype=bool)
+        self.cleaning = cleaning = np.asarray(cleaner, dtype=bool)
         before = self.time_ns
         self.steps += 1
-        self.time_ns = self.steps * self._step_ns
+        self.time_ns = now = self.steps * self._step_ns
         self.cleaned = _NOBODY
-        if crossed(before, self.time_ns, self._cleaning_ns) and self.cleaning.any():
-            self.cleaned = np.flatnonzero(self.cleaning)
-            self.field.clean_at(self.time_ns, self.poses[self.cleaned])  # eq. 3, robot order
+        if crossed(before, now, self._cleaning_ns) and cleaning.any():
+            self.cleaned = np.flatnonzero(cleaning)
+            self.field.clean_at(now, self.poses[self.cleaned])  # eq. 3, robot order
             self._sensed = None
-        if self.field.advance_to(self.time_ns):
+        # A static field has no transport ticks: skip the call (a batch pays it per world).
+        if self.field.dynamic and self.field.advance_to(now):
             self._sensed = None  # diffusion, evaporation, emission changed the cue
 
 
