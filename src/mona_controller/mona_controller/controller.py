@@ -9,6 +9,7 @@ so a robot behaves the same whichever runner hosts it.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 
@@ -92,10 +93,20 @@ class Command:
 class SwarmController:
     """The controllers of the robots ``robot_ids``; readings and sim time in, commands out.
 
-    Every parameter is also held per robot (arrays of the robots' length), so that
-    :meth:`merge` can join the controllers of several episodes, with different parameters,
-    into one that steps all their robots at once (the batched engine); each robot computes
-    exactly what it computes alone.
+    Every parameter is also held per robot, so that :meth:`merge` can join the controllers
+    of several episodes, with different parameters, into one that steps all their robots at
+    once (the batched engine); each robot computes exactly what it computes alone.
+
+    A step costs a fixed number of array operations over all robots (the Python cost of a
+    numpy call, not the robots, dominates it) and a little plain Python per robot whose state
+    changes (a few in a step of hundreds): what a robot does follows from four bits of a code
+    (:data:`_ACTIONS`). Eq. 1 and the wheel commands are looked up: ground readings are
+    bytes, so eq. 1 depends on them only through s_l + s_r (511 values), and a robot's wheels
+    only through s_l - s_r and whether it follows the gradient, waits, or turns which way
+    (4 x 511 pairs). The tables are worked out once per parameter set by the formulas
+    themselves (:func:`waiting_time`, :func:`gradient_wheels`), so a lookup is bit for bit
+    the formula. ``state`` and ``turn_direction`` are the controller's to change: each
+    robot's block of the command table is kept with them.
     """
 
     def __init__(self, params: ControllerParams, mona: MonaParams,
@@ -119,17 +130,29 @@ class SwarmController:
         self.until = np.zeros(n)  # end time (s) of the current wait or turn
         self.turn_direction = np.ones(n)  # +1 counter-clockwise, -1 clockwise
         self.encounters = np.zeros(n, dtype=np.int64)
-        # Per robot: (beta, alpha, max wheel command, wait_max, wait_half_constant, turn_min,
-        # turn_max, turn_command, turn_rate), one row per parameter.
-        self._per_robot = np.repeat(np.array([[
-            self.beta, params.alpha, mona.max_wheel_command, params.wait_max,
-            params.wait_half_constant, params.turn_min, params.turn_max, self.turn_command,
-            self.turn_rate]]).T, n, axis=1)
-        # Robots [start, stop) share IR bearings and the wall behaviour: (start, stop,
-        # bearings, random_turn). One span alone; one per episode in a merged controller.
-        self._spans = [(0, n, self.bearings, params.avoid == 'random-turn')]
+        # Each robot's block of its command table (_FOLLOWING, ...), kept with its state and
+        # turn direction: a step reads it instead of working it out from them.
+        self._command_block = np.zeros(n, dtype=np.intp)
+        # Per robot (_PER_ROBOT, lists: read one robot at a time): turn_min, turn_max and
+        # turn_rate; IR bearings; whether it turns blind at a wall.
+        self._turn = [(params.turn_min, params.turn_max, self.turn_rate)] * n
+        self._bearings = [tuple(self.bearings.tolist())] * n
+        self._random_turn = [params.avoid == 'random-turn'] * n
+        self._beams = np.ones(len(self.bearings), dtype=bool)
+        # The parameter sets of the tables, and each robot's (all the same one here).
+        self._table_keys = [(params, mona.max_wheel_command, self.beta, self.turn_command)]
+        self._table_set = np.zeros(n, dtype=np.intp)
+        self._use_tables()
         self.rngs: list[np.random.Generator] = []
         self.reset(0)
+
+    def _use_tables(self) -> None:
+        """Join the tables of ``_table_keys``; each robot's first rows in them."""
+        tables = [_tables(*key) for key in self._table_keys]
+        self._waits = np.concatenate([waits for waits, _ in tables])
+        self._commands = np.concatenate([commands for _, commands in tables])
+        self._wait_row = (self._table_set * _VALUES).tolist()
+        self._command_row = self._table_set * _COMMANDS + _ZERO_DIFFERENCE
 
     @classmethod
     def merge(cls, controllers: Sequence[SwarmController]) -> SwarmController:
@@ -145,13 +168,17 @@ class SwarmController:
         merged.mona = None
         merged.robot_ids = np.concatenate([c.robot_ids for c in controllers])
         merged.rngs = [rng for c in controllers for rng in c.rngs]
-        merged._per_robot = np.concatenate([c._per_robot for c in controllers], axis=1)
-        merged._spans, start = [], 0
-        for part in controllers:
-            for first, stop, bearings, random_turn in part._spans:
-                merged._spans.append((start + first, start + stop, bearings, random_turn))
-            start += len(part.robot_ids)
-        for name in ('state', 'until', 'turn_direction', 'encounters'):
+        for name in _PER_ROBOT:
+            setattr(merged, name, [value for c in controllers for value in getattr(c, name)])
+        merged._beams = controllers[0]._beams
+        # Parts with the same parameters share their tables (one set in a uniform batch).
+        keys = list(dict.fromkeys(key for c in controllers for key in c._table_keys))
+        merged._table_keys = keys
+        merged._table_set = np.concatenate([
+            np.array([keys.index(key) for key in c._table_keys], dtype=np.intp)[c._table_set]
+            for c in controllers])
+        merged._use_tables()
+        for name in ('state', 'until', 'turn_direction', 'encounters', '_command_block'):
             joined = np.concatenate([getattr(c, name) for c in controllers])
             setattr(merged, name, joined)
             start = 0
@@ -167,16 +194,9 @@ class SwarmController:
         self.until[:] = 0.0
         self.turn_direction[:] = 1.0
         self.encounters[:] = 0
+        self._command_block[:] = _FOLLOWING
         self.rngs = [np.random.default_rng([seed, CONTROLLER_STREAM, int(i)])
                      for i in self.robot_ids]
-
-    def _start_turn(self, i: int, now: float) -> None:
-        """Robot ``i`` turns in place by U[turn_min, turn_max] in a random direction, blind."""
-        rng, per_robot = self.rngs[i], self._per_robot
-        angle = rng.uniform(per_robot[_TURN_MIN, i], per_robot[_TURN_MAX, i])
-        self.turn_direction[i] = 1.0 if rng.random() < 0.5 else -1.0
-        self.state[i] = TURN
-        self.until[i] = now + angle / per_robot[_TURN_RATE, i]
 
     def step(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
              now: float | np.ndarray) -> Command:
@@ -188,72 +208,138 @@ class SwarmController:
             is_robot: [N, K] True where the obstacle seen is a robot.
             now: sim time of the readings (s); or [N], each robot's (a merged controller).
         """
-        state, until, per_robot = self.state, self.until, self._per_robot
-        each = np.ndim(now) > 0
         seen = ranges < np.inf
         robot_beams = seen & is_robot
-        robot_seen = robot_beams.any(axis=1)
         wall_beams = seen ^ robot_beams
-        wall_seen = wall_beams.any(axis=1)
+        # Each robot's code: state << 3 | its wait or turn is over << 2 | a beam sees a robot
+        # << 1 | a beam sees a wall (products by powers of two: quicker than shifts of int8).
+        # Whether any beam sees one is a boolean product with a vector of ones, several
+        # times faster than .any(axis=1) over a few beams.
+        code = self.state * 8
+        code |= (now >= self.until).view(np.int8) * 4
+        code |= (robot_beams @ self._beams).view(np.int8) * 2
+        code |= (wall_beams @ self._beams).view(np.int8)
+        actions = _ACTIONS.take(code)
+        acting = actions.nonzero()[0]
+        if len(acting):
+            self._act(acting.tolist(), actions, ground, wall_beams, now)
+        # Every robot's wheels by its command block and s_l - s_r (see _tables).
+        rows = self._command_row + self._command_block
+        rows += ground[:, 0]
+        rows -= ground[:, 1]
+        wheels = self._commands.take(rows).view(np.float64).reshape(-1, 2)
+        return Command(wheels=wheels, cleaner=self.state == WAIT)
 
-        timed_out = (state >= WAIT) & (now >= until)
-        if timed_out.any():
-            for i in np.flatnonzero(timed_out):
-                if state[i] == TURN:
-                    state[i] = FOLLOW
-                    continue
-                self._start_turn(i, now[i] if each else now)
-        state[(state == AVOID) & ~wall_seen] = FOLLOW
-
-        if robot_seen.any():
-            meet = np.flatnonzero(robot_seen & (state <= AVOID))
-            if len(meet):
-                cue = ground[meet].astype(np.float64).mean(axis=1)
-                state[meet] = WAIT
-                # Eq. 1 (waiting_time) with each robot's parameters.
-                squared = np.square(cue, dtype=np.float64)
-                wait = (per_robot[_WAIT_MAX, meet] * squared
-                        / (squared + per_robot[_WAIT_HALF, meet]))
-                until[meet] = (now[meet] if each else now) + wait
-                self.encounters[meet] += 1
-
-        if wall_seen.any():
-            start_avoid = np.flatnonzero(wall_seen & (state == FOLLOW))
-            if len(start_avoid):
-                self._start_avoiding(start_avoid, wall_beams, now, each)
-
-        wheels = gradient_wheels(ground, per_robot[_BETA], per_robot[_ALPHA],
-                                 per_robot[_MAX_COMMAND, :, None])
-        cleaner = state == WAIT
-        if state.any():  # anyone not following the gradient
-            turning = (state == TURN) | (state == AVOID)
-            spin = self.turn_direction[turning] * per_robot[_TURN_COMMAND, turning]
-            wheels[turning, 0] = -spin
-            wheels[turning, 1] = spin
-            wheels[cleaner] = 0.0
-        return Command(wheels=wheels, cleaner=cleaner)
-
-    def _start_avoiding(self, start_avoid: np.ndarray, wall_beams: np.ndarray,
-                        now: float | np.ndarray, each: bool) -> None:
-        """The robots ``start_avoid`` (following, a wall seen) start avoiding it."""
-        for first, stop, bearings, random_turn in self._spans:
-            if len(self._spans) > 1:  # only this span's robots (one span: all of them)
-                robots = start_avoid[(start_avoid >= first) & (start_avoid < stop)]
-                if not len(robots):
-                    continue
+    def _act(self, robots: list[int], actions: np.ndarray, ground: np.ndarray,
+             wall_beams: np.ndarray, now: float | np.ndarray) -> None:
+        """The ``robots`` carry out their ``actions`` (:data:`_ACTIONS`, of every robot) at
+        ``now`` (one time, or each robot's); one by one, as they are few."""
+        state, until, block = self.state, self.until, self._command_block
+        each = isinstance(now, np.ndarray) and now.ndim > 0
+        for i in robots:
+            action, now_i = actions.item(i), now.item(i) if each else now
+            if action == _FOLLOW:
+                state[i] = FOLLOW
+                block[i] = _FOLLOWING
+            elif action == _MEET:  # wait for eq. 1 of the mean cue, by s_l + s_r
+                total = ground.item(i, 0) + ground.item(i, 1)
+                until[i] = now_i + self._waits[self._wait_row[i] + total]
+                state[i] = WAIT
+                block[i] = _WAITING
+                self.encounters[i] += 1
+            elif action == _TURN or self._random_turn[i]:
+                # A wait is over, or a wall (classic BEECLUST): turn in place by
+                # U[turn_min, turn_max] in a random direction, blind.
+                rng = self.rngs[i]
+                turn_min, turn_max, turn_rate = self._turn[i]
+                angle = rng.uniform(turn_min, turn_max)
+                if rng.random() < 0.5:
+                    self.turn_direction[i], block[i] = 1.0, _COUNTER_CLOCKWISE
+                else:
+                    self.turn_direction[i], block[i] = -1.0, _CLOCKWISE
+                state[i] = TURN
+                until[i] = now_i + angle / turn_rate
             else:
-                robots = start_avoid
-            if random_turn:
-                for i in robots:
-                    self._start_turn(i, now[i] if each else now)
-            else:
-                # Turn away from the side the wall is on (bearings > 0 are on the left). The
-                # product is taken over one span's rows, as the episode alone takes it.
-                side = wall_beams[robots] @ bearings
-                self.turn_direction[robots] = np.where(side > 0, -1.0, 1.0)
-                self.state[robots] = AVOID
+                self._turn_away(i, wall_beams[i])
+
+    def _turn_away(self, i: int, wall_beams: np.ndarray) -> None:
+        """Robot ``i`` (following) turns in place away from the side of the wall its
+        ``wall_beams`` see: the sign of the sum of their bearings (> 0 on the left), added
+        beam after beam from the right, so that a sum of about zero has the same sign in any
+        batch."""
+        side = 0.0
+        for sees, bearing in zip(wall_beams.tolist(), self._bearings[i]):
+            if sees:
+                side += bearing
+        if side > 0:
+            self.turn_direction[i], self._command_block[i] = -1.0, _CLOCKWISE
+        else:
+            self.turn_direction[i], self._command_block[i] = 1.0, _COUNTER_CLOCKWISE
+        self.state[i] = AVOID
 
 
-# Rows of SwarmController._per_robot.
-(_BETA, _ALPHA, _MAX_COMMAND, _WAIT_MAX, _WAIT_HALF, _TURN_MIN, _TURN_MAX, _TURN_COMMAND,
- _TURN_RATE) = range(9)
+#: Per-robot lists of SwarmController, joined by SwarmController.merge.
+_PER_ROBOT = ('_turn', '_bearings', '_random_turn')
+
+#: What a robot does in a step (SwarmController._act).
+_NOTHING, _FOLLOW, _MEET, _TURN, _AVOID = range(5)
+
+
+def _action(state: int, over: bool, robot: bool, wall: bool) -> int:
+    """The step of a robot in ``state``, when its wait or turn is ``over`` or not and a beam
+    sees a ``robot``, a ``wall`` or not: the BEECLUST rules in the order they apply."""
+    if state == WAIT:
+        return _TURN if over else _NOTHING  # a wait ends in a random turn
+    if state == TURN and not over:
+        return _NOTHING
+    # Following, avoiding, or following again from this very step (the turn is over).
+    if robot:
+        return _MEET  # a robot: stop and wait
+    if state == AVOID:
+        return _NOTHING if wall else _FOLLOW  # avoid until no beam sees the wall
+    if wall:
+        return _AVOID
+    return _FOLLOW if state == TURN else _NOTHING
+
+
+#: The action of every code state << 3 | over << 2 | robot << 1 | wall.
+_ACTIONS = np.array([_action(code >> 3, bool(code & 4), bool(code & 2), bool(code & 1))
+                     for code in range(32)], dtype=np.int8)
+
+#: Ground readings are 0..255: s_l + s_r and s_l - s_r + 255 take 511 values.
+_VALUES = 511
+_ZERO_DIFFERENCE = 255
+#: A command table: 4 blocks of one row per s_l - s_r, for a robot following the gradient
+#: (eq. 2), waiting (stopped), turning in place (turning or avoiding) counter-clockwise,
+#: clockwise. The first row of each block:
+_FOLLOWING, _WAITING, _COUNTER_CLOCKWISE, _CLOCKWISE = (block * _VALUES for block in range(4))
+_COMMANDS = 4 * _VALUES
+
+
+@functools.lru_cache(maxsize=64)
+def _tables(params: ControllerParams, max_command: float, beta: float,
+            turn_command: float) -> tuple[np.ndarray, np.ndarray]:
+    """The lookup tables of one parameter set (read-only, shared by controllers).
+
+    Waits [511]: eq. 1 at s_l + s_r (of the readings' mean). Commands [4 * 511] complex (one
+    gather of 16-byte rows is several times quicker than of rows of a 2-D array), the real
+    and imaginary parts of a row the (left, right) wheels, at row block + s_l - s_r + 255:
+    eq. 2 (following), (0, 0) (waiting), (-spin, spin) with spin = direction * turn_command
+    (turning in place or away from a wall, direction +1, -1). Each is its formula on readings
+    with that sum or difference, all that it depends on.
+    """
+    total = np.arange(_VALUES)
+    left = np.minimum(total, 255)
+    ground = np.stack([left, total - left], axis=1).astype(np.uint8)
+    waits = waiting_time(ground.astype(np.float64).mean(axis=1), params)
+    difference = total - _ZERO_DIFFERENCE
+    ground = np.stack([np.maximum(difference, 0), np.maximum(-difference, 0)],
+                      axis=1).astype(np.uint8)
+    commands = np.zeros((_COMMANDS, 2))  # (left, right); waiting: (0, 0)
+    commands[_FOLLOWING:_WAITING] = gradient_wheels(ground, beta, params.alpha, max_command)
+    for first, direction in ((_COUNTER_CLOCKWISE, 1.0), (_CLOCKWISE, -1.0)):
+        spin = direction * turn_command
+        commands[first:first + _VALUES] = (-spin, spin)
+    commands = commands.view(np.complex128).ravel()
+    waits.flags.writeable = commands.flags.writeable = False
+    return waits, commands
