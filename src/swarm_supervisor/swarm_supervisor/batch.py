@@ -1,14 +1,12 @@
 """The batched engine: many independent episodes stepped together, each exactly as alone.
 
-A step of one episode pays a fixed Python overhead (about 75 us at any N) for a few
-microseconds of model per robot. :class:`Batch` pays the overhead of sensing and the
-controllers once for all its episodes: the robots of every episode are concatenated, the IR
-ring is cast for all of them in one compiled call, and one :class:`SwarmController` (merged
-from the episodes' own, :meth:`SwarmController.merge`) steps them all with per-robot
-parameters and each robot's own random generator. Each episode keeps its own
-:class:`~swarm_world.world.World` (its own pymunk space, cue and noise streams) and is
-advanced through the world's public API, ``world.step(linear, angular, cleaner)``, so
-whatever the world does in a step (physics, cleaning, cue dynamics) happens as it does alone.
+A step of one episode pays a fixed Python overhead for a few microseconds of model per
+robot. :class:`Batch` pays it once for all its episodes: their worlds are stepped as one
+:class:`~swarm_world.world.WorldBatch` (every robot's sensors and wheel forces in one compiled
+call each; each world keeps its own pymunk space, cue and noise streams and is advanced by
+the same parts as ``World.step``), and one :class:`SwarmController` (merged from the
+episodes' own, :meth:`SwarmController.merge`) steps all robots with per-robot parameters and
+each robot's own random generator.
 
 Exactness: every number an episode computes is computed from its own inputs by the same
 operations as alone (element-wise arithmetic, the same compiled kernels on its own rows, the
