@@ -9,6 +9,7 @@ import pytest
 from mona_controller.controller import WAIT
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.episode import Episode
+from swarm_supervisor.outputs import write_episode
 from swarm_supervisor.runner import run_episode
 
 SIDE, RADIUS = 2.85, 0.04
@@ -97,6 +98,18 @@ def test_without_robots_the_cue_stays_put():
     result = run_episode(config)
     assert {row['mean_cue_fraction'] for row in result.metrics} == {1.0}
     assert np.array_equal(result.final_cue, Episode(config).world.initial_cue)
+
+
+def test_an_episode_without_snapshots_is_written(tmp_path):
+    config = SwarmConfig().replace(episode={'population': 4, 'duration': 3.0, 'seed': 2})
+    result = run_episode(config)
+    assert not result.snapshots
+    write_episode(result, tmp_path)
+    with np.load(tmp_path / 'snapshots.npz') as saved:
+        assert saved['cue'].shape == (0, *result.final_cue.shape)
+        assert saved['poses'].shape == (0, 4, 3)
+        np.testing.assert_array_equal(saved['final_poses'], result.final_poses)
+    assert (tmp_path / 'episode.json').exists()
 
 
 def test_cli_run_writes_the_outputs(tmp_path):

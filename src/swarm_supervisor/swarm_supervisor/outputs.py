@@ -90,7 +90,8 @@ def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = '
         out / SNAPSHOTS_FILE, times=np.array(times, dtype=np.float64),
         cue=np.array([result.snapshots[t][0] for t in times], dtype=np.float32).reshape(
             len(times), *result.final_cue.shape),
-        poses=np.array([result.snapshots[t][1] for t in times]).reshape(len(times), -1, 3),
+        poses=np.array([result.snapshots[t][1] for t in times]).reshape(
+            len(times), len(result.final_poses), 3),
         final_cue=result.final_cue, final_poses=result.final_poses,
         initial_poses=result.initial_poses)
     config = result.config
