@@ -155,6 +155,14 @@ def test_from_episodes_analyses_folders_without_snapshots(finished, tmp_path):
                                   pd.read_csv(finished / 'all_metrics.csv'))
 
 
+def test_from_episodes_refuses_options_that_run_episodes(finished, tmp_path, capsys):
+    status = main(['study', '--out', str(tmp_path / 'a'), '--batch-size', '4',
+                   '--from-episodes', str(finished / study.EPISODES_DIR)])
+    assert status == 2
+    assert '--batch-size cannot be combined with --from-episodes' in capsys.readouterr().err
+    assert not (tmp_path / 'a').exists()
+
+
 def test_from_episodes_rejects_the_same_episode_twice(finished, tmp_path, capsys):
     copy = tmp_path / 'copy'
     shutil.copytree(finished / study.EPISODES_DIR, copy)

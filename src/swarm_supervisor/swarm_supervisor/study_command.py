@@ -38,7 +38,6 @@ def register(subparsers) -> None:
     parser.add_argument('--jobs', type=bounded(int, 1), metavar='J',
                         help='worker processes (default: one per CPU)')
     parser.add_argument('--batch-size', type=bounded(int, 1), metavar='B',
-                        default=study.DEFAULT_BATCH_SIZE,
                         help='episodes each worker steps together (default: '
                              f'{study.DEFAULT_BATCH_SIZE}; 1: one at a time); the outputs are '
                              'the same for any size')
@@ -89,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
                                'many jobs as its workers run)')
     rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
                            scheduler_timeout=args.scheduler_timeout, bag=args.bag,
-                           videos=args.videos, batch_size=args.batch_size)
+                           videos=args.videos,
+                           batch_size=args.batch_size or study.DEFAULT_BATCH_SIZE)
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
 def from_episodes(args: argparse.Namespace, started: float) -> int:
     """``--from-episodes``: check and analyse existing episode folders; run nothing."""
     unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
-                                       ('--jobs', args.jobs),
+                                       ('--jobs', args.jobs), ('--batch-size', args.batch_size),
                                        ('--scheduler', args.scheduler), ('--bag', args.bag),
                                        ('--videos', args.videos)) if value]
     if unused:
