@@ -32,6 +32,7 @@ _WRENCH = _FIELDS.FORCE | _FIELDS.TORQUE
 # block each time; Physics builds its blocks once and calls them directly.
 _SET_BODY = ffi.addressof(lib, 'pmSpaceBodySetIteratorFuncBatched')
 _GET_BODY = ffi.addressof(lib, 'pmSpaceBodyGetIteratorFuncBatched')
+_each_body, _space_step = lib.cpSpaceEachBody, lib.cpSpaceStep
 
 
 class Physics:
@@ -67,6 +68,8 @@ class Physics:
         # The space also lists its static body last: the buffers carry one spare row.
         self._wrench = np.zeros((self.count + 1, 3))
         self._write.set_float_buf(self._wrench)  # the write buffer is _wrench's memory
+        self._written = self._write._float_arr.num  # the floats it holds
+        self._space = self.space._space  # the cpSpace pointer
         self._set = self._batched(_WRENCH, self._write)
         self._get = self._batched(_STATE, self._read)
         self._state: np.ndarray | None = None  # a view of the read buffer, once it exists
@@ -90,6 +93,7 @@ class Physics:
         a block of a batch's array, see :class:`PhysicsBatch`) instead of its own array."""
         self._write.set_float_buf(wrench)
         self._wrench = wrench
+        self._written = self._write._float_arr.num  # the floats it holds
         self._set = self._batched(_WRENCH, self._write)
 
     def step(self, linear: np.ndarray, angular: np.ndarray, dt: float) -> np.ndarray:
@@ -115,22 +119,22 @@ class Physics:
         state [count, 6] (x, y, angle, vx, vy, omega): a view of pymunk's read buffer, valid
         until the next step."""
         # pymunk.batch.set_space_bodies: read the buffer from its start, then restore it.
-        written = self._write._float_arr
-        filled, written.num = written.num, 0
-        lib.cpSpaceEachBody(self.space._space, _SET_BODY, self._set)
-        written.num = filled
+        space, written = self._space, self._write._float_arr
+        written.num = 0
+        _each_body(space, _SET_BODY, self._set)
+        written.num = self._written
         if self._stepped:
             # Space.step's Python side (adds and removes queued in callbacks, post-step
             # callbacks, mass checks of new bodies) has nothing to do after the first step:
             # no callbacks are ever registered and no body is added or removed.
-            lib.cpSpaceStep(self.space._space, dt)
+            _space_step(space, dt)
         else:
             self.space.step(dt)
             self._stepped = True
         read = self._read._float_arr
         read.num = 0  # Buffer.clear(); pymunk appends, growing the array only when full
         capacity = read.max
-        lib.cpSpaceEachBody(self.space._space, _GET_BODY, self._get)
+        _each_body(space, _GET_BODY, self._get)
         if self._state is None or read.max != capacity:  # first step, or the array moved
             self._state = np.frombuffer(self._read.float_buf(),
                                         dtype=np.float64).reshape(-1, 6)[:self.count]
