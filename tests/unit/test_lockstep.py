@@ -59,6 +59,21 @@ def test_a_duplicate_is_counted_and_the_first_answer_counts():
     assert rounds.commands()[0].tolist() == [0.1, 0.0]
 
 
+def test_a_repeat_arriving_after_its_round_is_a_duplicate_not_a_drop():
+    # Step 0's readings are repeated until a robot answers; its answer to a repeat can
+    # arrive after the round closed (found by the system test on a quiet machine).
+    rounds = lockstep(population=1)
+    rounds.start_round(stamp(0))
+    assert rounds.answer(0, stamp(0), 0.1, 0.0).complete
+    rounds.start_round(stamp(1))
+    assert rounds.answer(0, stamp(0), 0.1, 0.0) == Answer(Outcome.DUPLICATE)
+    assert rounds.answer(0, stamp(1), 0.2, 0.0).outcome is Outcome.ACCEPTED
+    # An older stamp than the robot's last answer is a drop, as is a late first answer.
+    assert rounds.answer(0, stamp(0), 0.1, 0.0).outcome is Outcome.DROPPED
+    assert (rounds.duplicates, rounds.dropped) == (1, 1)
+    assert rounds.commands()[0].tolist() == [0.2]
+
+
 def test_at_the_deadline_the_late_robots_miss_and_hold_still():
     rounds = lockstep()
     rounds.start_round(stamp(0))

@@ -5,8 +5,9 @@
 waits for each present robot's command with exactly that stamp, or for a deadline. A robot
 that misses the deadline holds still for the step; after ``absent_after`` misses in a row it
 is absent, no longer waited for, kept still and its cleaner off, until it answers any stamp of
-the episode again. A command stamped for another step is dropped, a second one for the same
-step is a duplicate (the first one counts).
+the episode again. A command stamped for another step is dropped; a second one for the step a
+robot last answered is a duplicate (the first one counts), also once that round is over: the
+answers a robot repeats to step 0's repeated readings may cross the world's next round.
 
 **Realtime.** The world steps on its own clock with each robot's latest command; one that
 answers readings more than ``absent_after`` steps old holds still and is absent.
@@ -69,7 +70,7 @@ class Lockstep:
         self.duplicates = 0
         self.expected_ns = -1  #: the stamp of the latest round
         self.open = False  #: the latest round still takes commands
-        self.answered = np.zeros(population, dtype=bool)  # this round's stamp
+        self.answered_ns = np.full(population, -1, dtype=np.int64)  # last accepted stamps
         self.awaited = np.zeros(population, dtype=bool)  # this round waits for them still
         self.pending = 0  # count of awaited, kept as an int for the hot path
         self.command_ns = np.full(population, -1, dtype=np.int64)  # realtime: latest stamps
@@ -81,7 +82,6 @@ class Lockstep:
         robot; until it answers, a robot holds still."""
         self.expected_ns = expected_ns
         self.open = True
-        self.answered[:] = False
         self.linear[:] = 0.0
         self.angular[:] = 0.0
         np.logical_not(self.absent, out=self.awaited)
@@ -106,7 +106,7 @@ class Lockstep:
         if rejoined:
             self.absent[robot] = False
             self.consecutive[robot] = 0
-        if stamp_ns == self.expected_ns and self.answered[robot]:
+        if stamp_ns == self.answered_ns[robot]:  # a repeat, in this round or after it
             self.duplicates += 1
             return Answer(Outcome.DUPLICATE, rejoined)
         if stamp_ns != self.expected_ns or not self.open:
@@ -114,7 +114,7 @@ class Lockstep:
             return Answer(Outcome.DROPPED, rejoined)
         if not (math.isfinite(linear) and math.isfinite(angular)):
             linear = angular = 0.0
-        self.answered[robot] = True
+        self.answered_ns[robot] = stamp_ns
         self.linear[robot], self.angular[robot] = linear, angular
         self.consecutive[robot] = 0
         if self.awaited[robot]:
