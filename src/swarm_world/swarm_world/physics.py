@@ -7,9 +7,10 @@ robots push each other and stop at walls instead of sinking in. (pymunk integrat
 at the start of a step with the velocity the previous step's solver left, so a command moves
 the robot one step later: a 32 ms actuation delay.) All bodies are read and written in one
 batch call (a per-body Python loop costs about 5x), through pymunk's own batch functions in C
-with their argument blocks built once per episode: a step's Python overhead around pymunk is
-about 8 us instead of 19 (what a batch of episodes pays per episode, see
-swarm_supervisor.batch), with the same numbers in the same order.
+with their argument blocks built once per episode, and the wrench comes from one compiled
+call; :class:`PhysicsBatch` computes the wrench of every robot of a batch of arenas in that
+one call, into the arrays their spaces' write buffers are bound to, with the same numbers
+in the same order as each space alone.
 """
 
 from __future__ import annotations
@@ -66,11 +67,8 @@ class Physics:
         self._read = pymunk.batch.Buffer()
         self._write = pymunk.batch.Buffer()
         # The space also lists its static body last: the buffers carry one spare row.
-        self._wrench = np.zeros((self.count + 1, 3))
-        self._write.set_float_buf(self._wrench)  # the write buffer is _wrench's memory
-        self._written = self._write._float_arr.num  # the floats it holds
+        self.bind(np.zeros((self.count + 1, 3)))  # the write buffer is _wrench's memory
         self._space = self.space._space  # the cpSpace pointer
-        self._set = self._batched(_WRENCH, self._write)
         self._get = self._batched(_STATE, self._read)
         self._state: np.ndarray | None = None  # a view of the read buffer, once it exists
         self._scale = (0.0, self._inertia)  # (dt, [count, 3] inertia / dt) of the last step
