@@ -211,12 +211,12 @@ class WorldBatch:
                     np.array([world.bearings for world in worlds]),
                     np.array([mona.ir_range for mona in monas]),
                     np.array([world.params.arena_side for world in worlds]))
-        self._noisy_wheels = [(world, rows) for world, rows in zip(worlds, self.slices)
-                              if world.noise.wheel]
-        self._trig: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))
-        self._noisy_ground = [(world, rows) for world, rows in zip(worlds, self.slices)
-                              if world.noise.ground]
+        # The worlds with each kind of noise (usually none), with their rows.
+        self._noisy_wheels, self._noisy_ground, self._noisy_beams = (
+            [(world, rows) for world, rows in zip(worlds, self.slices)
+             if getattr(world.noise, kind)] for kind in ('wheel', 'ground', 'ir_miss'))
         self._ground_noisy = np.array([bool(world.noise.ground) for world in worlds])
+        self._trig: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))
         self._ground = (np.array([world.params.cell_size for world in worlds]),
                         np.array([world.mona.wheel_separation / 2 for world in worlds]))
         # Each world's sensed field, in one list the compiled kernel takes, replaced when the
@@ -248,22 +248,20 @@ class WorldBatch:
             field = world.sensed_field()
             if field is not self._field_list[e]:  # a new array (footprint, transport)
                 self._field_list[e] = self._fields[e] = field
-        noisy = self._ground_noisy
         extra = _NO_NOISE
-        if noisy.any():
+        if self._noisy_ground:
             extra = np.zeros((int(self.bounds[-1]), 2))
             for world, rows in self._noisy_ground:
                 extra[rows] = world.ground_noise()
         return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
-                                   self.trig(), extra, noisy,
+                                   self.trig(), extra, self._ground_noisy,
                                    np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
 
     def proximity(self) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`sense`'s IR readings (ranges, is_robot)."""
         ranges, is_robot = proximity_many(self.poses, self.trig(), self.bounds, *self._ir)
-        for world, rows in zip(self.worlds, self.slices):
-            if world.noise.ir_miss:
-                world.miss_beams(ranges[rows], is_robot[rows])
+        for world, rows in self._noisy_beams:
+            world.miss_beams(ranges[rows], is_robot[rows])
         return ranges, is_robot
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
