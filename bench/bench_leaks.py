@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from swarm_supervisor.config import SwarmConfig, load_config
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.engine.runner import run_episode
 
 DESIGN = Path(__file__).resolve().parents[1] / 'ros_ws' / 'config' / 'designs' / \
     'moving_leaks.yaml'

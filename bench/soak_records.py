@@ -22,8 +22,8 @@ from pathlib import Path
 from swarm_metrics.bag_reader import BagError, read_episode_bag
 from swarm_metrics.completeness import check_bag
 from swarm_supervisor.config import load_config
-from swarm_supervisor.processes import busy_cores
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.system.processes import busy_cores
+from swarm_supervisor.engine.runner import run_episode
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / 'ros_ws' / 'config' / 'mona_swarm.yaml'

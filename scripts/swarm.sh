@@ -7,7 +7,7 @@
 # Across machines: --role core on one host, --role controllers --robots 0-24 on others, each
 # with the same --domain and --peers IP,IP (a unicast Fast DDS profile instead of loopback).
 #
-# The work is done by swarm_supervisor.launch (--help lists the options); this finds its Python:
+# The work is done by `mona-swarm launch` (--help lists the options); this finds its Python:
 # the repository's .venv, else the python3 of a sourced colcon workspace. Exit status: 0 if
 # every node succeeded and ended by itself; 1 if a node failed or had to be stopped; 2 for bad
 # options or parameters; 124 on --timeout; 130 / 143 when stopped by SIGINT / SIGTERM.
@@ -22,4 +22,4 @@ then
     '(ros_ws/README.md)' >&2
   exit 2
 fi
-exec "$python" -m swarm_supervisor.launch "$@"
+exec "$python" -m swarm_supervisor.cli launch "$@"

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from harness import Processes, private_domain, ros_environment
-from swarm_supervisor.processes import busy_cores as busy_loops
+from swarm_supervisor.system.processes import busy_cores as busy_loops
 
 
 @pytest.fixture

@@ -1,6 +1,6 @@
 """Process harness for ROS tests and benchmarks: a private domain id, process groups that are
 always stopped, and removal of Fast DDS shared-memory leftovers. The machinery is the one
-scripts/swarm.sh runs (swarm_supervisor.processes); tests/conftest.py wraps it in fixtures.
+scripts/swarm.sh runs (swarm_supervisor.system.processes); tests/conftest.py wraps it in fixtures.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import subprocess
 from pathlib import Path
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
-from swarm_supervisor.processes import (PROFILE, domain_shm_files, group_pids,  # noqa: F401
+from swarm_supervisor.system.processes import (PROFILE, domain_shm_files, group_pids,  # noqa: F401
                                         groups_shm, mapped_shm, private_domain,
                                         remove_shm_leftovers, ros_environment, shm_files,
                                         start_group, stop_group, stop_groups)

@@ -6,7 +6,7 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    # The paper's claims (swarm_supervisor.claims reads them with importlib.resources).
+    # The paper's claims (swarm_supervisor.analysis.claims reads them with importlib.resources).
     package_data={package_name: ['paper_claims.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
@@ -35,7 +35,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'supervisor_node = swarm_supervisor.supervisor_node:main',
+            'supervisor_node = swarm_supervisor.system.supervisor_node:main',
             'mona-swarm = swarm_supervisor.cli:main',
         ],
     },

@@ -16,7 +16,7 @@ import numpy as np
 
 from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter, offered_qos
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.episode import Episode
+from swarm_supervisor.engine.episode import Episode
 from swarm_world.timing import crossed
 
 TYPES = TYPESTORE.types

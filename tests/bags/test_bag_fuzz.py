@@ -15,7 +15,7 @@ from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import BagError, TruncatedBagError, read_episode_bag
 from swarm_metrics.recover import recover_bag
 from swarm_supervisor import cli
-from swarm_supervisor.bag_commands import checked_mcap
+from swarm_supervisor.cli.bags import checked_mcap
 from swarm_supervisor.config import load_config
 
 from bagtools import embedded_episode_bag

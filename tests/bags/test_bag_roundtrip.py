@@ -13,7 +13,7 @@ from swarm_metrics.bag_reader import BagError, find_mcap, read_episode_bag
 from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter
 from swarm_supervisor import cli
 from swarm_supervisor.config import load_config
-from swarm_supervisor.outputs import read_metrics_csv, write_metrics_csv
+from swarm_supervisor.outputs.episode_folder import read_metrics_csv, write_metrics_csv
 
 from bagtools import TOPICS, embedded_episode_bag, string_cdr
 

@@ -23,7 +23,7 @@ from swarm_metrics.bag_reader import read_custom_data, read_episode_bag
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics_node import METRICS_QOS, MetricsNodeParams, bag_qos
 from swarm_supervisor.config import load_config, write_ros_yaml
-from swarm_supervisor.record import ROBOT_STATES, TOPICS, BagOptions, record_episode
+from swarm_supervisor.outputs.bag import ROBOT_STATES, TOPICS, BagOptions, record_episode
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import CONFIG, SwarmRun  # noqa: E402

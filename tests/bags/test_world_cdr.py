@@ -15,7 +15,7 @@ from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.world_cdr import (STATE_COLOURS, clock_cdr, cue_grid_cdr, cue_image_cdr,
                                      float64_cdr, markers_cdr, pose_array_cdr, states_cdr,
                                      states_from_cdr, string_cdr)
-from swarm_supervisor.record import status_json
+from swarm_supervisor.outputs.bag import status_json
 from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image
 
 pytestmark = pytest.mark.ros

@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from swarm_supervisor.live import LIVE_TOPICS
-from swarm_supervisor.record import TOPICS
+from swarm_supervisor.media.live import LIVE_TOPICS
+from swarm_supervisor.outputs.bag import TOPICS
 
 LAYOUT = Path(__file__).parents[2] / 'ros_ws' / 'config' / 'foxglove_layout.json'
 #: Topics only the live view carries (a bag records them only with record_all): the 3D

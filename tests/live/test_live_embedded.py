@@ -19,7 +19,7 @@ import pytest
 from foxclient import Capture, connect_when_up
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_metrics.world_cdr import STATE_COLOURS
-from swarm_supervisor.live import LIVE_TOPICS
+from swarm_supervisor.media.live import LIVE_TOPICS
 
 POPULATION, DURATION, PACE = 6, 60.0, 12.0
 

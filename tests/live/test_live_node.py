@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from foxclient import Capture, connect_when_up
-from swarm_supervisor.live_node import NODE_TOPICS
+from swarm_supervisor.system.live_node import NODE_TOPICS
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import SwarmRun  # noqa: E402

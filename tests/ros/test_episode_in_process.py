@@ -11,8 +11,8 @@ from rclpy.parameter import Parameter
 
 from mona_controller.controller_node import ControllerNode
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.runner import run_episode
-from swarm_supervisor.supervisor_node import RUN_FILE, Supervisor
+from swarm_supervisor.engine.runner import run_episode
+from swarm_supervisor.system.supervisor_node import RUN_FILE, Supervisor
 from swarm_world.world_node import FINAL_FILE, WorldNode
 
 pytestmark = pytest.mark.ros

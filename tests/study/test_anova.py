@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from swarm_supervisor.anova import (TABLE_COLUMNS, VARIANTS, anova, anova_sample,
+from swarm_supervisor.analysis.anova import (TABLE_COLUMNS, VARIANTS, anova, anova_sample,
                                     compare_variants, time_levels, write_anova)
 
 
@@ -190,7 +190,7 @@ def test_a_variant_too_small_to_fit_is_nan_not_an_error():
 
 
 def test_report_variant_table_covers_both_responses_and_every_variant():
-    from swarm_supervisor.report import variant_table
+    from swarm_supervisor.analysis.report import variant_table
     table = synthetic_table(23, population_effect=3.0, speed_effect=1.0, time_effect=0.0)
     frame = variant_table(table)
     assert list(frame.columns) == ['response', 'factor', *VARIANTS]

@@ -32,15 +32,16 @@ def test_any_batch_size_writes_the_same_files(tmp_path):
 
 def test_batches_are_balanced_and_never_mix_step_periods():
     config = load_config().replace(study=TINY)
-    tasks = [(study.episode_config(config, spec), (), spec.name, False)
+    tasks = [study.EpisodeTask(study.episode_config(config, spec), (), spec.name)
              for spec in study.design(config)]
     batches = study.make_batches(tasks, batch_size=5, jobs=2)
     assert [len(b) for b in batches] == [5, 5, 5, 5, 4]
-    assert sorted(t[2] for b in batches for t in b) == sorted(t[2] for t in tasks)
+    assert sorted(t.folder for b in batches for t in b) == sorted(t.folder for t in tasks)
     # Few episodes: every worker still gets a batch.
     assert [len(b) for b in study.make_batches(tasks[:4], batch_size=16, jobs=2)] == [2, 2]
     slow = load_config().replace(world={'step_period': 0.05}, episode={'population': 3})
-    mixed = study.make_batches(tasks[:3] + [(slow, (), 'slow', False)], batch_size=16, jobs=1)
+    mixed = study.make_batches(tasks[:3] + [study.EpisodeTask(slow, (), 'slow')], batch_size=16,
+                               jobs=1)
     assert sorted(len(b) for b in mixed) == [1, 3]
 
 
@@ -57,8 +58,8 @@ def test_an_interrupted_batch_keeps_its_finished_episodes(tmp_path, monkeypatch)
 
     monkeypatch.setattr(outputs, 'write_episode', write)
     with pytest.raises(KeyboardInterrupt):
-        study._run_batch_and_write([(long, (0.0,), str(tmp_path / 'long'), False),
-                                    (short, (0.0,), str(tmp_path / 'short'), False)])
+        study.run_and_write([study.EpisodeTask(long, (0.0,), str(tmp_path / 'long')),
+                             study.EpisodeTask(short, (0.0,), str(tmp_path / 'short'))])
     assert outputs.episode_complete(tmp_path / 'short')
     assert not outputs.episode_complete(tmp_path / 'long')
 

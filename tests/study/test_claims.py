@@ -9,10 +9,11 @@ import pandas as pd
 import pytest
 import yaml
 
-from swarm_supervisor import claims
-from swarm_supervisor.claims import FAILS, HOLDS, NOT_APPLICABLE, ClaimError, evaluate
+from swarm_supervisor.analysis import claims
+from swarm_supervisor.analysis.checks import CHECKS, evaluate, evaluate_levels
+from swarm_supervisor.analysis.claims import FAILS, HOLDS, NOT_APPLICABLE, ClaimError
 from swarm_supervisor.cli import main
-from swarm_supervisor.report import compared_section
+from swarm_supervisor.analysis.report import compared_section
 
 POPULATIONS = (10, 30, 50)
 SPEEDS = (0.04, 0.08)
@@ -199,7 +200,7 @@ def test_design_factor_levels_are_evaluated_apart():
     with pytest.raises(ValueError, match='mona.ir_range'):
         evaluate(both, [order])
     assert evaluate(fast, [order])[0].status == HOLDS  # one level: a subset is fine
-    pairs = claims.evaluate_levels(both, [order])
+    pairs = evaluate_levels(both, [order])
     assert [(levels, [r.status for r in results]) for levels, results in pairs] == [
         ({'mona.ir_range': 0.03}, [HOLDS]), ({'mona.ir_range': 0.1}, [FAILS])]
     text = '\n'.join(compared_section(pairs))
@@ -209,7 +210,7 @@ def test_design_factor_levels_are_evaluated_apart():
 def test_shipped_claims_load_cover_every_kind_and_run():
     shipped = claims.paper_claims()
     assert len({c.id for c in shipped}) == len(shipped) >= 10
-    assert {c.kind for c in shipped} == set(claims.CHECKS)
+    assert {c.kind for c in shipped} == set(CHECKS)
     assert {c.where.split()[0] + ' ' + c.where.split()[1].rstrip('ab')
             for c in shipped} >= {'fig. 4', 'fig. 5', 'fig. 6', 'table 2', 'table 3'}
     results = evaluate(CLEAN, shipped)  # 100 s: the claims at 1000 s and more do not apply

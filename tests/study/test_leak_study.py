@@ -6,7 +6,9 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from swarm_supervisor import figures, study
+from swarm_supervisor.analysis import figures
+
+from swarm_supervisor import study
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from swarm_supervisor import claims, sensitivity
-from swarm_supervisor.figures import BASE_LABEL
+from swarm_supervisor.analysis import claims, sensitivity
+from swarm_supervisor.analysis.figures import BASE_LABEL
 
 MORE_ROBOTS = claims.parse_claims({'claims': [{
     'id': 'more-robots', 'where': 'fig. 4a', 'paper': 'More robots clean faster.',

@@ -12,10 +12,11 @@ import pandas as pd
 import pytest
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor import figures, study
+from swarm_supervisor.analysis import figures
+from swarm_supervisor import study
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.engine.runner import run_episode
 
 SWEEP = {'populations': [6], 'speeds': [0.08], 'seeds': [1, 2], 'duration': 30.0,
          'snapshot_times': [0.0, 30.0], 'factors': {'mona.ir_range': [0.02, 0.1]}}

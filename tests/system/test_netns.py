@@ -21,7 +21,7 @@ import pytest
 from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_supervisor.config import load_config
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.engine.runner import run_episode
 from swarmrun import CONFIG, SwarmRun, group_alive
 
 pytestmark = pytest.mark.ros

@@ -21,8 +21,8 @@ from rosbags.typesys import Stores, get_typestore
 from swarmrun import CONFIG, SWARM, SwarmRun, group_alive
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_supervisor.config import load_config
-from swarm_supervisor.outputs import read_metrics_csv
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.outputs.episode_folder import read_metrics_csv
+from swarm_supervisor.engine.runner import run_episode
 
 pytestmark = pytest.mark.ros
 

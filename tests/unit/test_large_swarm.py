@@ -12,7 +12,7 @@ import pytest
 from mona_controller.mona import MonaParams
 from swarm_metrics.metrics import ALL_PAIRS_MAX, coherency
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.episode import Episode
+from swarm_supervisor.engine.episode import Episode
 from swarm_world.placement import place_robots, placement_rng
 from swarm_world.sensors import proximity
 

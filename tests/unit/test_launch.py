@@ -1,5 +1,5 @@
 """The launcher of the node system without ROS: options, overrides, controller processes, the
-domain lock and the signal ladder (swarm_supervisor.launch and .processes)."""
+domain lock and the signal ladder (swarm_supervisor.system.launcher and .processes)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,17 @@ from pathlib import Path
 import pytest
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor import launch
+from swarm_supervisor.cli import launch as launch_cli
+from swarm_supervisor.cli import main
 from swarm_supervisor.config import DEFAULT_CONFIG
-from swarm_supervisor.processes import (claim_domain, group_pids, lock_domain,
-                                        ros_environment, start_group, stop_group, stop_groups)
+from swarm_supervisor.system import launcher
+from swarm_supervisor.system.processes import (claim_domain, group_pids, lock_domain,
+                                               ros_environment, start_group, stop_group,
+                                               stop_groups)
 
 
 def options(*argv: str):
-    return launch.build_parser().parse_args(list(argv))
+    return launch_cli.build_parser().parse_args(list(argv))
 
 
 def test_defaults():
@@ -45,37 +48,40 @@ def test_defaults():
     (['--popul', '3'], '--popul'),  # no abbreviations: every option is spelled out
     (['--timeout'], '--timeout'),
 ])
-def test_a_bad_option_is_named(argv, option):
-    with pytest.raises(launch.UsageError, match=option):
-        options(*argv)
+def test_a_bad_option_is_named(argv, option, capsys):
+    with pytest.raises(SystemExit) as stopped:
+        main(['launch', *argv])
+    assert stopped.value.code == 2
+    error = capsys.readouterr().err.splitlines()[-1]
+    assert error.startswith('mona-swarm') and ': error: ' in error and option in error
 
 
 def test_overrides_come_from_the_options_then_p():
     parsed = options('--population', '5', '--speed', '8', '--duration', '60', '--seed', '3',
                      '-p', 'lockstep_deadline:=0.5', '-p', 'controller.alpha:=2.0')
-    assert launch.run_overrides(parsed) == [
+    assert launcher.run_overrides(parsed) == [
         'episode.population:=5', 'episode.duration:=60.0', 'episode.seed:=3',
         'controller.speed:=0.08', 'lockstep_deadline:=0.5', 'controller.alpha:=2.0']
 
 
 def test_overrides_are_checked_with_the_schema():
-    config = launch.check_parameters(DEFAULT_CONFIG, [
+    config = launcher.check_parameters(DEFAULT_CONFIG, [
         'episode.population:=7', 'controller.speed:=0.04', 'lockstep_deadline:=0.5'])
     assert (config.episode.population, config.controller.speed) == (7, 0.04)
     with pytest.raises(ParameterError, match=r'controller.speed = 3.0 is out of range'):
-        launch.check_parameters(DEFAULT_CONFIG, ['controller.speed:=3.0'])
+        launcher.check_parameters(DEFAULT_CONFIG, ['controller.speed:=3.0'])
     with pytest.raises(ParameterError, match='controller.nope'):
-        launch.check_parameters(DEFAULT_CONFIG, ['controller.nope:=1'])
+        launcher.check_parameters(DEFAULT_CONFIG, ['controller.nope:=1'])
     with pytest.raises(ParameterError, match='episode.population = 0'):
-        launch.check_parameters(DEFAULT_CONFIG, ['episode.population:=0'])
+        launcher.check_parameters(DEFAULT_CONFIG, ['episode.population:=0'])
     with pytest.raises(ParameterError, match='episode.seed'):
-        launch.check_parameters(DEFAULT_CONFIG, ['episode.seed:=[1'])
+        launcher.check_parameters(DEFAULT_CONFIG, ['episode.seed:=[1'])
 
 
 def test_a_bad_parameter_exits_2_before_anything_starts(tmp_path: Path, capsys):
     out = tmp_path / 'never'
-    assert launch.main(['--speed', '300', '--out', str(out)]) == 2
-    assert 'swarm.sh: bad parameter: controller.speed = 3.0 is out of range' in \
+    assert main(['launch', '--speed', '300', '--out', str(out)]) == 2
+    assert 'mona-swarm launch: bad parameter: controller.speed = 3.0 is out of range' in \
         capsys.readouterr().err
     assert not out.exists()
 
@@ -88,15 +94,15 @@ def test_a_bad_parameter_exits_2_before_anything_starts(tmp_path: Path, capsys):
     (1, 1, ['0']),
 ])
 def test_controller_groups(population, per_process, groups):
-    assert launch.controller_groups(population, per_process) == groups
+    assert launcher.controller_groups(population, per_process) == groups
 
 
 def test_each_node_gets_the_parameters_and_its_own_options():
     parsed = options('--population', '3', '--episodes', '2', '--controllers-per-process', '2',
                      '-p', 'clock_period:=1.0')
     out = Path('/results/run')
-    executables = {kind: f'/bin/{kind}' for kind in launch.EXECUTABLES}
-    commands = launch.node_commands(parsed, 3, out, executables)
+    executables = {kind: f'/bin/{kind}' for kind in launcher.EXECUTABLES}
+    commands = launcher.node_commands(parsed, 3, out, executables)
     assert list(commands) == ['world', 'metrics', 'controller_0-1', 'controller_2',
                               'supervisor']
     common = ['--ros-args', '--params-file', str(DEFAULT_CONFIG),
@@ -109,9 +115,9 @@ def test_each_node_gets_the_parameters_and_its_own_options():
     assert commands['supervisor'] == ['/bin/supervisor', *common, '-p', 'episodes:=2',
                                       '-p', f'output_dir:={out}', '-p', 'recorders:=metrics']
     # The world's patience grows with the swarm, unless given.
-    many = launch.node_commands(options('--population', '40'), 40, out, executables)
+    many = launcher.node_commands(options('--population', '40'), 40, out, executables)
     assert 'start_timeout:=120.0' in many['world']
-    given = launch.node_commands(options('--start-timeout', '5'), 40, out, executables)
+    given = launcher.node_commands(options('--start-timeout', '5'), 40, out, executables)
     assert 'start_timeout:=5.0' in given['world']
 
 
@@ -120,8 +126,8 @@ def test_last_error_is_the_message_of_the_last_error_line(tmp_path: Path):
     log.write_text('[ERROR] [1.0] [world]: first\n[INFO] [2.0] [world]: fine\n'
                    '[FATAL] [3.0] [world]: episode 0: the recorder(s) metrics did not confirm\n'
                    'Traceback ...\n')
-    assert launch.last_error(log) == 'episode 0: the recorder(s) metrics did not confirm'
-    assert launch.last_error(tmp_path / 'missing.log') == ''
+    assert launcher.last_error(log) == 'episode 0: the recorder(s) metrics did not confirm'
+    assert launcher.last_error(tmp_path / 'missing.log') == ''
 
 
 def test_the_domain_lock_excludes_a_second_holder_and_is_inherited(tmp_path: Path):

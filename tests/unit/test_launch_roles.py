@@ -9,16 +9,18 @@ from pathlib import Path
 
 import pytest
 
-from swarm_supervisor import launch
-from swarm_supervisor.processes import local_address, peers_profile
+from swarm_supervisor.cli import launch as launch_cli
+from swarm_supervisor.cli import main
+from swarm_supervisor.system import launcher
+from swarm_supervisor.system.processes import local_address, peers_profile
 
-EXECUTABLES = {kind: f'/bin/{kind}' for kind in launch.EXECUTABLES}
+EXECUTABLES = {kind: f'/bin/{kind}' for kind in launcher.EXECUTABLES}
 NS = '{http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles}'
 
 
 def commands(*argv: str, population: int = 5) -> dict[str, list[str]]:
-    parsed = launch.build_parser().parse_args(list(argv))
-    return launch.node_commands(parsed, population, Path('/tmp/out'), EXECUTABLES)
+    parsed = launch_cli.build_parser().parse_args(list(argv))
+    return launcher.node_commands(parsed, population, Path('/tmp/out'), EXECUTABLES)
 
 
 def test_each_role_starts_its_part():
@@ -35,14 +37,14 @@ def test_each_role_starts_its_part():
 
 
 def test_controller_groups_of_given_robots():
-    assert launch.controller_groups(10, 2, [0, 1, 2, 7, 8]) == ['0-1', '2,7', '8']
-    assert launch.controller_groups(10, 3) == ['0-2', '3-5', '6-8', '9']
+    assert launcher.controller_groups(10, 2, [0, 1, 2, 7, 8]) == ['0-1', '2,7', '8']
+    assert launcher.controller_groups(10, 3) == ['0-2', '3-5', '6-8', '9']
 
 
 @pytest.mark.parametrize('spec, ids', [('3', [3]), ('0-4', [0, 1, 2, 3, 4]),
                                        ('0,2,5-6', [0, 2, 5, 6])])
 def test_robots_spec(spec, ids):
-    assert launch.parse_robots(spec) == ids
+    assert launch_cli.parse_robots(spec) == ids
 
 
 @pytest.mark.parametrize('argv, message', [
@@ -53,9 +55,12 @@ def test_robots_spec(spec, ids):
     (['--peers', '10.0.0.300'], '--peers'),
     (['--domain', '233'], '--domain'),
 ])
-def test_a_bad_role_option_is_named(argv, message):
-    with pytest.raises(launch.UsageError, match=message):
-        launch.build_parser().parse_args(argv)
+def test_a_bad_role_option_is_named(argv, message, capsys):
+    with pytest.raises(SystemExit) as stopped:
+        main(['launch', *argv])
+    assert stopped.value.code == 2
+    error = capsys.readouterr().err.splitlines()[-1]
+    assert error.startswith('mona-swarm launch: error: ') and message in error
 
 
 @pytest.mark.parametrize('argv', [
@@ -68,8 +73,8 @@ def test_a_bad_role_option_is_named(argv, message):
 def test_a_split_run_it_cannot_make_work_exits_2_before_starting(argv, tmp_path, capsys,
                                                                   monkeypatch):
     monkeypatch.delenv('SWARM_DOMAIN_ID', raising=False)
-    assert launch.main([*argv, '--out', str(tmp_path / 'out')]) == 2
-    assert 'swarm.sh: ' in capsys.readouterr().err
+    assert main(['launch', *argv, '--out', str(tmp_path / 'out')]) == 2
+    assert 'mona-swarm launch: ' in capsys.readouterr().err
     assert not (tmp_path / 'out' / 'processes.tsv').exists()
 
 
@@ -91,4 +96,4 @@ def test_peers_profile_is_unicast_on_this_address_to_every_peer():
     assert root.find(f'{NS}transport_descriptors/{NS}transport_descriptor/'
                      f'{NS}interfaceWhiteList/{NS}address').text == '10.1.0.2'
     assert participant.find(f'{NS}rtps/{NS}builtin/{NS}metatrafficMulticastLocatorList') is None
-    assert os.path.basename(launch.PEERS_PROFILE) == 'fastdds_peers.xml'
+    assert os.path.basename(launcher.PEERS_PROFILE) == 'fastdds_peers.xml'

@@ -13,8 +13,8 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_metrics.metrics import columns, sample
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.episode import Episode
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.engine.episode import Episode
+from swarm_supervisor.engine.runner import run_episode
 from swarm_world import transport
 from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams

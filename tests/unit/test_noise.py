@@ -8,7 +8,7 @@ import pytest
 
 from mona_controller.mona import MonaParams
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.runner import run_episode
+from swarm_supervisor.engine.runner import run_episode
 from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.sensors import ground_readings

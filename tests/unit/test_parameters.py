@@ -71,10 +71,10 @@ def test_flat_fields_give_dotted_ros_names():
 def test_parameter_reference_matches_the_schema():
     from pathlib import Path
 
-    from swarm_supervisor.paramdoc import render
+    from swarm_supervisor.cli.paramdoc import render
     page = Path(__file__).resolve().parents[2] / 'docs' / 'parameters.md'
     assert page.read_text() == render(), (
-        'docs/parameters.md is stale: run python -m swarm_supervisor.paramdoc > '
+        'docs/parameters.md is stale: run python -m swarm_supervisor.cli.paramdoc > '
         'docs/parameters.md')
 
 

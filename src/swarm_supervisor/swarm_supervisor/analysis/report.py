@@ -1,0 +1,374 @@
+"""From episode folders to the study's results: figures, ANOVA tables and report.md.
+
+:func:`analyse` is the one path from episodes to results, whichever runner produced them
+(the embedded study, or ``mona-swarm analyze`` on ROS bags): it reads each folder's
+metrics.csv and episode.json, writes ``all_metrics.csv``, figures 3-6, ``anova_cue.csv`` and
+``anova_coherency.csv``, and a ``report.md`` whose reading of the results is computed from
+the data.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import platform
+import subprocess
+import time
+from collections.abc import Mapping, Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from swarm_supervisor.analysis import anova as anova_tables
+from swarm_supervisor.analysis import checks
+from swarm_supervisor.analysis import claims as claim_checks
+from swarm_supervisor.analysis import figures
+from swarm_metrics.completeness import Finding
+from swarm_metrics.metrics import source_names
+from swarm_supervisor import __version__, outputs, study
+from swarm_supervisor.analysis import sensitivity
+from swarm_supervisor.analysis.reading import (ANOVA_FILES, cleaning_summary, reading,
+                                               variant_cells, variant_table)
+
+REPORT_FILE = 'report.md'
+DEPENDENCIES = ('numpy', 'pymunk', 'pandas', 'statsmodels', 'matplotlib')
+
+
+@dataclasses.dataclass
+class Figure:
+    """One figure of the report: its file (None when skipped) and a note."""
+
+    title: str
+    file: str | None
+    note: str = ''
+
+
+def _records(folders: Sequence[Path]) -> list[dict[str, Any]]:
+    return [json.loads((folder / outputs.EPISODE_FILE).read_text()) for folder in folders]
+
+
+def analyse(out_dir: str | Path, folders: Sequence[Path], *,
+            table: pd.DataFrame | None = None, sources: Sequence[str] = (),
+            parameters_file: str | None = None,
+            incomplete: Mapping[Path, Sequence[Finding]] | None = None,
+            claims_files: Sequence[str | Path] = ()) -> Path:
+    """Write every result of a study of the episodes in ``folders`` into ``out_dir``.
+
+    Args:
+        table: the tidy table of ``folders`` if already built (else read from them).
+        sources: where the episodes came from, for the report (default: ``out_dir``).
+        parameters_file: the parameter file saved in ``out_dir`` that produced them, if any.
+        incomplete: the folders whose record is incomplete and what each lacks
+            (:func:`swarm_supervisor.study.table.incomplete_episodes`; default: what their
+            episode.json records), listed in the report.
+        claims_files: claims files checked beside the paper's claims
+            (:func:`swarm_supervisor.analysis.claims.all_claims`).
+
+    Returns:
+        The path of report.md.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    folders = [Path(folder) for folder in folders]
+    if table is None:
+        table = study.tidy_table(folders)
+        study.write_table(table, out / study.TABLE_FILE)
+    records = _records(folders)
+    if incomplete is None:
+        incomplete = {folder: findings for folder, record in zip(folders, records)
+                      if (findings := study.recorded_findings(record))}
+    drawn = make_figures(out, table, folders, records)
+    tables = {}
+    for response, name in ANOVA_FILES.items():
+        tables[response] = anova_tables.anova(table, response)
+        anova_tables.write_anova(tables[response], out / name)
+    variants = variant_table(table)
+    claims = claim_checks.all_claims(claims_files)
+    compared = checks.evaluate_levels(table, claims)
+    matrix = sensitivity.write_sensitivity(out, table, claims)
+    path = out / REPORT_FILE
+    path.write_text(render(out, table, folders, records, drawn, tables, sources=sources,
+                           parameters_file=parameters_file, incomplete=incomplete,
+                           compared=compared, variants=variants, matrix=matrix))
+    return path
+
+
+def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
+                 records: Sequence[dict[str, Any]]) -> list[Figure]:
+    """Figures 3-6 into ``out`` (and the per-source figure when the episodes have several
+    sources); fig. 3 is skipped (with a note) when no episode kept maps."""
+    initial = table['mean_cue'] / table['mean_cue_fraction']
+    initial_mean = float(np.nanmedian(initial)) if initial.notna().any() else 0.0
+    radius = records[0].get('parameters', {}).get('metrics', {}).get('source_radius', 0.7)
+    drawn = [fig3(out, folders, records)]
+    if drawn[0].file is None:  # never leave an earlier run's fig. 3 beside these results
+        (out / figures.FIG3).unlink(missing_ok=True)
+    drawn.append(Figure('Fig. 4: mean cue vs time', figures.FIG4,
+                        figures.fig4_mean_cue(table, out / figures.FIG4,
+                                              initial_mean=initial_mean)))
+    drawn.append(Figure('Fig. 5: ratio of robots near the source', figures.FIG5,
+                        figures.fig5_ratio_near_source(table, out / figures.FIG5,
+                                                       source_radius=radius)))
+    drawn.append(Figure('Fig. 6: coherency', figures.FIG6,
+                        figures.fig6_coherency(table, out / figures.FIG6)))
+    if source_names(list(table.columns)):
+        drawn.append(Figure('Cue near each source', figures.FIG_SOURCES,
+                            figures.fig_sources(table, out / figures.FIG_SOURCES)))
+    else:  # never leave an earlier design's figure beside these results
+        (out / figures.FIG_SOURCES).unlink(missing_ok=True)
+    return drawn
+
+
+def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) -> Figure:
+    """Fig. 3 from the episode nearest N = 30 at 8 cm/s (first seed) that kept cue maps."""
+    title = 'Fig. 3: cue maps'
+    mapped = [(folder, record) for folder, record in zip(folders, records)
+              if (folder / outputs.SNAPSHOTS_FILE).exists()]
+    if not mapped:
+        return Figure(title, None, 'skipped: no episode folder holds snapshots.npz (episodes '
+                      'analysed from ROS bags keep no cue maps); run the embedded study for '
+                      'fig. 3')
+    keys = [study.episode_key(folder) for folder, _ in mapped]
+    speed = figures.choose_speed([key['speed'] for key in keys])
+    population = figures.nearest([k['population'] for k in keys if k['speed'] == speed],
+                                 figures.FIG3_POPULATION)
+    seed, folder, record = min((k['seed'], f, r) for k, (f, r) in zip(keys, mapped)
+                               if k['speed'] == speed and k['population'] == population)
+    notes = []
+    if population != figures.FIG3_POPULATION or not np.isclose(speed, figures.PAPER_SPEED):
+        notes.append("nearest to the paper's N = 30, 8 cm/s in this design")
+    parameters = record.get('parameters', {})
+    with np.load(folder / outputs.SNAPSHOTS_FILE) as archive:
+        snapshots = {name: archive[name] for name in ('times', 'cue', 'poses')}
+    try:
+        note = figures.fig3_cue_maps(
+            snapshots, out / figures.FIG3, population=population, speed=speed, seed=seed,
+            arena_side=parameters['world']['arena_side'],
+            body_radius=parameters['mona']['body_radius'],
+            peak=parameters['world']['cue_peak'],
+            duration=float(record.get('duration', parameters['episode']['duration'])),
+            substitute='; '.join(notes))
+    except figures.FigureSkipped as reason:
+        return Figure(title, None, f'skipped: {reason} ({folder.name})')
+    return Figure(title, figures.FIG3, f'episode {folder.name}' + (f'; {note}' if note else ''))
+
+
+def compared_section(compared: Sequence[tuple[dict[str, Any],
+                                              Sequence[claim_checks.ClaimResult]]],
+                     labels: Sequence[str] = ()) -> list[str]:
+    """'Compared with the paper': each claim, the paper's words, ours, and whether it holds
+    (one table per combination of the design factors' levels, headed by ``labels`` if given,
+    e.g. the figures' panel labels)."""
+    lines = ['## Compared with the paper', '',
+             "*Each finding of the paper's results section (and any claims added with "
+             '`--claims`), checked on the table above by the check its claims file names '
+             '(`swarm_supervisor/paper_claims.yaml`); medians over seeds.*', '']
+    labels = list(labels) if len(labels) == len(compared) else [
+        ', '.join(f'{name} = {value}' for name, value in levels.items())
+        for levels, _ in compared]
+    for (levels, results), label in zip(compared, labels):
+        if levels:
+            lines += [f'### {label}', '']
+        counts = {status: sum(r.status == status for r in results)
+                  for status in claim_checks.STATUSES}
+        lines += [', '.join(f'{count} {status}' for status, count in counts.items()
+                            if count) + '.', '']
+        frame = pd.DataFrame([{'claim': f'`{r.id}`', 'where': r.claim.where,
+                               'the paper': r.claim.paper.replace('|', '/'),
+                               'ours': r.ours.replace('|', '/'),
+                               'holds?': f'**{r.status}**' if r.status == claim_checks.FAILS
+                               else r.status} for r in results])
+        lines += [markdown_table(frame), '']
+    return lines
+
+
+def markdown_table(frame: pd.DataFrame, formats: dict[str, str] | None = None) -> str:
+    """A DataFrame as a GitHub markdown table (NaN shown as '-'; strings as they are)."""
+    formats = formats or {}
+
+    def cell(column: str, value: Any) -> str:
+        if isinstance(value, float) and np.isnan(value):
+            return '-'
+        if isinstance(value, str):
+            return value
+        spec = formats.get(column)
+        return format(value, spec) if spec else str(value)
+
+    lines = ['| ' + ' | '.join(frame.columns) + ' |',
+             '|' + '---|' * len(frame.columns)]
+    for row in frame.itertuples(index=False):
+        lines.append('| ' + ' | '.join(cell(c, v) for c, v in zip(frame.columns, row)) + ' |')
+    return '\n'.join(lines)
+
+
+def software() -> dict[str, str]:
+    """Versions of this software, Python and the libraries that shape the results."""
+    versions = {'mona_swarm': __version__, 'python': platform.python_version()}
+    for name in DEPENDENCIES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = 'not installed'
+    try:
+        versions['git'] = subprocess.run(
+            ['git', 'describe', '--always', '--dirty'], cwd=Path(__file__).parent,
+            capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return versions
+
+
+def differing_parameters(records: Sequence[dict[str, Any]]) -> list[str]:
+    """Parameters other than the factors and the seed that differ between episodes."""
+    values: dict[str, set] = {}
+    for record in records:
+        for section, fields in record.get('parameters', {}).items():
+            if section == 'study' or not isinstance(fields, dict):
+                continue
+            for key, value in fields.items():
+                name = f'{section}.{key}'
+                if name not in ('episode.population', 'episode.seed', 'controller.speed'):
+                    values.setdefault(name, set()).add(json.dumps(value))
+    return sorted(name for name, seen in values.items() if len(seen) > 1)
+
+
+def _timing(records: Sequence[dict[str, Any]], folders: Sequence[Path],
+            out: Path) -> list[str]:
+    lines = []
+    frame = pd.DataFrame([{**study.episode_key(folder),
+                           'wall': record.get('wall_time_s', np.nan),
+                           'rtf': record.get('real_time_factor', np.nan)}
+                          for folder, record in zip(folders, records)])
+    if frame['wall'].notna().any():
+        cells = frame.groupby(['population', 'speed']).agg(
+            episodes=('wall', 'size'), median_wall_s=('wall', 'median'),
+            max_wall_s=('wall', 'max'), real_time_factor=('rtf', 'median')).reset_index()
+        cells['speed'] = cells['speed'].map(figures.speed_label)
+        lines += ['Wall time of one episode (the simulation alone, from each episode.json):',
+                  '', markdown_table(cells, {'median_wall_s': '.1f', 'max_wall_s': '.1f',
+                                             'real_time_factor': '.0f'}), '',
+                  f'Sum over the {frame["wall"].notna().sum()} episodes: '
+                  f'{frame["wall"].sum():.0f} s of wall time (one core each).']
+    invocations = study.read_invocations(out)
+    if invocations:
+        lines += ['', 'Study runs into this folder (total wall time; the CPU time the episodes '
+                  'used, which does not grow when other programs share the machine):', '']
+        for entry in invocations:
+            cpu = entry.get('cpu_time_s')
+            lines.append(f'- {entry["started"]}: ran {entry["ran"]}, kept {entry["kept"]} of '
+                         f'{entry["episodes"]} episodes on {entry["jobs"]} worker(s) in '
+                         f'{entry["wall_time_s"]:.1f} s'
+                         + (f'; episodes used {cpu:.0f} s of CPU' if cpu else ''))
+    return lines or ['No timing recorded in these episodes.']
+
+
+def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
+           records: Sequence[dict[str, Any]], drawn: Sequence[Figure],
+           tables: dict[str, pd.DataFrame], *, sources: Sequence[str] = (),
+           parameters_file: str | None = None,
+           incomplete: Mapping[Path, Sequence[Finding]] | None = None,
+           compared: Sequence[tuple[dict[str, Any], Sequence[claim_checks.ClaimResult]]] = (),
+           variants: pd.DataFrame | None = None, matrix: Path | None = None) -> str:
+    """The text of report.md (``incomplete``: see :func:`analyse`; ``compared``: the claims
+    checked per level of the design factors,
+    :func:`~swarm_supervisor.analysis.checks.evaluate_levels`;
+    ``variants``: :func:`variant_table`; ``matrix``: sensitivity.md, if written).
+    """
+    levels = {key: sorted(table[key].unique().tolist()) for key in study.KEYS}
+    ends = table.groupby(list(study.KEYS))['t'].max()
+    runners = sorted({record.get('runner', 'unknown') for record in records})
+    lines = [
+        '# Mona swarm study: pollution-source localisation and cleanup (BEECLUST)', '',
+        f'Generated {time.strftime("%Y-%m-%d %H:%M:%S")} from {len(folders)} episodes '
+        f'({", ".join(runners)} runner) in '
+        + (', '.join(f'`{s}`' for s in sources) if sources else f'`{out}`') + '.', '',
+        '## Design', '',
+        f'- population N: {", ".join(map(str, levels["population"]))} robots',
+        f'- speed v_r: {", ".join(figures.speed_label(v) for v in levels["speed"])}',
+        f'- seeds: {", ".join(map(str, levels["seed"]))} (one episode per seed and cell)',
+        f'- episode length: {_range(ends)} s, metrics sampled every '
+        f'{float(np.median(np.diff(np.unique(table["t"])))):g} s',
+    ]
+    if parameters_file:
+        lines.append(f'- every parameter: [`{parameters_file}`]({parameters_file}) (ROS 2 '
+                     'parameter file; `mona-swarm study --config` reads it back); each episode '
+                     "folder's episode.json also records its own")
+    else:
+        lines.append("- every parameter: in each episode folder's episode.json")
+    factors = study.design_factors(table)
+    for factor in factors:
+        lines.append(f'- factor `{factor}`: '
+                     + ', '.join(str(v) for v in sorted(table[factor].unique().tolist())))
+    differ = [name for name in differing_parameters(records) if name not in factors]
+    if differ:
+        lines.append(f'- **warning**: these parameters differ between episodes: '
+                     f'{", ".join(differ)}')
+    if incomplete:
+        lines.append(f'- **warning**: {len(incomplete)} of {len(folders)} episodes are '
+                     f'incomplete (analysed anyway, `--allow-incomplete`); what each record '
+                     f'lacks:')
+        for folder, findings in incomplete.items():
+            lines.append(f'  - `{Path(folder).name}`: '
+                         + '; '.join(str(finding) for finding in findings))
+    lines.append(f'- tidy table of every sample: [`{study.TABLE_FILE}`]({study.TABLE_FILE}) '
+                 f'({len(table)} rows)')
+    lines += ['', '## What the results show', '',
+              '*Computed from the table above; medians over seeds.*', '']
+    lines += [f'- {line}' for line in reading(table, tables)]
+    lines += [''] + compared_section(compared, [label for label, _ in figures.variants(table)])
+    if matrix is not None:
+        lines += [f'Which verdicts change with which factor level, claim by claim: '
+                  f'[`{matrix.name}`]({matrix.name}) (and `{sensitivity.MATRIX_CSV}`).', '']
+    lines += ['', '## Figures', '']
+    for figure in drawn:
+        lines.append(f'### {figure.title}')
+        lines.append('')
+        if figure.file:
+            lines.append(f'![{figure.title}]({figure.file})')
+            lines.append('')
+        if figure.note:
+            lines.append(f'*Note: {figure.note}.*')
+            lines.append('')
+    extra = study.design_factors(table)
+    lines += ['## Tables', '',
+              'ANOVA with time, population, speed'
+              + ''.join(f', {name}' for name in extra) + ' as categorical factors (main effects, '
+              'type-II sums of squares, statsmodels `ols` + `anova_lm`). Time enters as '
+              f'{anova_tables.DEFAULT_LEVELS} levels: each episode contributes its value at '
+              't = ' + ', '.join(f'{t:g}' for t in anova_tables.time_levels(table)) +
+              ' s. Successive samples of one episode are not independent, so p-values are '
+              "optimistic; eta^2 is the factor's share of the total sum of squares.", '']
+    formats = {'sum_sq': '.4g', 'F': '.4g', 'p': '.3g', 'eta_sq': '.3f', 'levels': '.0f'}
+    for response, name in ANOVA_FILES.items():
+        label = 'Table 2: mean cue' if response == 'mean_cue' else 'Table 3: coherency'
+        shown = tables[response].astype({'p': object})
+        shown.loc[shown['p'] == 0, 'p'] = '< 1e-300'
+        lines += [f'### {label} ([`{name}`]({name}))', '',
+                  markdown_table(shown, formats), '']
+    if variants is not None:
+        lines += ['### How time and samples enter: F per ANOVA variant', '',
+                  'The paper does not say how time and the samples entered its ANOVA. F of each '
+                  'factor under each variant (`swarm_supervisor.analysis.anova`, `variant=`); '
+                  'the tables '
+                  'above are `levels`. ' + '; '.join(f'`{name}`: {text}' for name, text in
+                                                     anova_tables.VARIANT_TEXT.items()) + '.',
+                  '', markdown_table(variant_cells(variants)), '']
+    summary = cleaning_summary(table)
+    summary['speed'] = summary['speed'].map(figures.speed_label)
+    lines += ['### Cleaning by cell', '',
+              'Median over seeds of the time until the mean cue is half its initial value '
+              '(- when most seeds never got there) and of the fraction left at the end.', '',
+              markdown_table(summary, {'t_half_s': '.0f', 'final_fraction': '.3f',
+                                       'end_s': '.0f'}), '']
+    lines += ['## Timing', ''] + _timing(records, folders, out) + ['']
+    lines += ['## Software', '']
+    lines += [f'- {name}: {version}' for name, version in software().items()]
+    return '\n'.join(lines) + '\n'
+
+
+def _range(values: pd.Series) -> str:
+    low, high = float(values.min()), float(values.max())
+    return f'{low:g}' if low == high else f'{low:g}-{high:g}'

@@ -1,0 +1,263 @@
+"""``mona-swarm analyze``, ``replay`` and ``recover``: working with episode bags.
+
+A bag the writer never closed (a killed node) is recovered automatically by ``analyze`` and
+``replay`` into ``<bag>_recovered``. A bad bag gets a one-paragraph report and exit status 2.
+A readable bag that fails a completeness check (:mod:`swarm_metrics.completeness`: the first
+seconds missing, a gap, no ``finished`` status, a cue map the cleaning record does not
+rebuild, ...) is an error with exit status 1 that names the checks; with
+``--allow-incomplete`` it is used anyway, and ``analyze`` records the findings in episode.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from mona_controller.schema import ParameterError, from_mapping
+from swarm_metrics import completeness
+from swarm_metrics.analysis import recompute
+from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.completeness import Finding
+from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
+from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.outputs.episode_folder import write_episode
+from swarm_supervisor.engine.runner import EpisodeResult
+
+BAG_NAMES = ('bag', 'bag' + SUFFIX)  # the metrics node's bag folder (and its recovered copy)
+INCOMPLETE, BAD_BAG = 1, 2  # exit statuses
+#: episode.json fields of the embedded runner that a bag cannot give.
+EMBEDDED_ONLY = ('encounters', 'wall_time_s', 'real_time_factor')
+ALLOW_HELP = 'use a bag that fails a completeness check anyway (see docs/bags.md)'
+
+
+class IncompleteBagError(Exception):
+    """A readable bag that fails completeness checks; the message lists the findings.
+
+    Args:
+        path: the bag's .mcap.
+        findings: the failed checks.
+        hint: what the user can do about it.
+        note: a note to keep with the error (e.g. that the bag was recovered).
+    """
+
+    def __init__(self, path: Path, findings: Sequence[Finding], hint: str,
+                 note: str | None = None) -> None:
+        self.findings = list(findings)
+        checks = completeness.failed_checks(findings)
+        plural = 's' if len(checks) > 1 else ''
+        super().__init__(f'{path} is incomplete: it fails the {", ".join(checks)} check'
+                         f'{plural}; {hint}:\n{completeness.describe(findings)}'
+                         + (f'\n  note: {note}' if note else ''))
+
+
+def register(subparsers) -> None:
+    """Add the ``analyze``, ``replay`` and ``recover`` subcommands."""
+    parser = subparsers.add_parser(
+        'analyze', help='recompute the metrics of episode bags',
+        description='Recompute every metric from episode bags (rosbag2 directories or .mcap '
+                    'files) and write metrics.csv, episode.json, snapshots.npz and a final cue '
+                    'map PNG per bag, like `mona-swarm run`. A bag whose writer was killed is '
+                    'recovered first. A bag that fails a completeness check (missing seconds, '
+                    'no finished status, a cue map the cleaning record does not rebuild, ...) '
+                    'is an error (exit status 1) unless --allow-incomplete.')
+    parser.add_argument('bags', nargs='+', type=Path, metavar='BAG')
+    parser.add_argument('--out', type=Path, metavar='DIR',
+                        help='output folder (with several bags: one subfolder each); default: '
+                             'the folder holding each bag (episode_<k>/)')
+    parser.add_argument('--allow-incomplete', action='store_true',
+                        help=ALLOW_HELP + '; the findings go into episode.json')
+    parser.set_defaults(handler=analyze)
+
+    parser = subparsers.add_parser(
+        'replay', help='play a bag back onto its ROS topics',
+        description='Publish every message of a bag on its topic, with /clock, timed by the '
+                    'log (sim) times divided by --rate. A bag that fails a completeness check '
+                    'is an error (exit status 1) unless --allow-incomplete.')
+    parser.add_argument('bag', type=Path, metavar='BAG')
+    parser.add_argument('--rate', type=bounded(float, 0), default=1.0,
+                        help='sim seconds per wall second (default 1; 0: as fast as possible)')
+    parser.add_argument('--delay', type=bounded(float, 0), default=1.0, metavar='SECONDS',
+                        help='wait this long for subscribers to connect before playing '
+                             '(default 1)')
+    parser.add_argument('--allow-incomplete', action='store_true', help=ALLOW_HELP)
+    parser.set_defaults(handler=replay)
+
+    parser = subparsers.add_parser(
+        'recover', help='salvage a bag whose writer was killed',
+        description='Rewrite every intact message of a bag (e.g. one without its MCAP '
+                    'summary after a crash) as a valid bag, and report what was kept.')
+    parser.add_argument('bag', type=Path, metavar='BAG')
+    parser.add_argument('--out', type=Path, metavar='DIR',
+                        help=f'the recovered bag (default: <BAG>{SUFFIX})')
+    parser.set_defaults(handler=recover)
+
+
+def _bad_bag(command: str, error: Exception, status: int = BAD_BAG) -> int:
+    print(f'mona-swarm {command}: error: {error}', file=sys.stderr)
+    return status
+
+
+# --- analyze ------------------------------------------------------------------------------
+
+def bag_directory(path: Path) -> Path:
+    """The bag itself: its rosbag2 directory, or a lone .mcap file."""
+    path = path.resolve()
+    if path.suffix == '.mcap' and path.parent.name == path.stem:
+        return path.parent  # rosbags' layout: <dir>/<dir>.mcap
+    return path
+
+
+def output_folder(path: Path, out: Path | None, several: bool) -> Path:
+    """Where a bag's analysis goes: next to the bag (the episode_<k>/ folder holding it), or
+    ``out``, or with several bags a subfolder of ``out`` named after the episode or bag."""
+    bag = bag_directory(path)
+    if out is None:
+        return bag.parent
+    if not several:
+        return out
+    return out / (bag.parent.name if bag.name.startswith(BAG_NAMES) else bag.stem)
+
+
+def analyze(args: argparse.Namespace) -> int:
+    """Recompute and write each bag's outputs; a bad or incomplete bag is reported and skipped.
+
+    Returns:
+        2 if a bag was unreadable, else 1 if one failed a completeness check, else 0.
+    """
+    status = 0
+    for path in args.bags:
+        out = output_folder(path, args.out, len(args.bags) > 1)
+        try:
+            message = analyze_bag(path, out, allow_incomplete=args.allow_incomplete)
+        except IncompleteBagError as error:
+            status = max(status, _bad_bag('analyze', error, INCOMPLETE))
+            continue
+        except BagError as error:
+            status = max(status, _bad_bag('analyze', error))
+            continue
+        print(message)
+    return status
+
+
+def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False) -> str:
+    """Recompute one bag into ``out``; returns the lines to print.
+
+    Args:
+        path: the bag (directory or .mcap); a cut-short one is recovered first.
+        out: the episode folder to write.
+        allow_incomplete: write the outputs of a bag that fails a completeness check (the
+            findings go into episode.json) instead of raising.
+
+    Raises:
+        BagError: the bag is unreadable.
+        IncompleteBagError: it fails a completeness check (with a bad announcement, even
+            when ``allow_incomplete``: there is nothing to analyse it with).
+    """
+    bag, note = with_recovery(path, read_episode_bag)
+    findings = completeness.check_announcement(bag)
+    if not findings:
+        try:
+            config = from_mapping(SwarmConfig, bag.announcement['parameters'])
+        except ParameterError as error:
+            findings = [Finding('announcement', '/episode',
+                                f'{bag.path}: the announced parameters are invalid: {error}')]
+    if findings:
+        raise IncompleteBagError(bag.path, findings, 'it cannot be analysed without its '
+                                 'announcement, even with --allow-incomplete', note)
+    duration = config.episode.duration
+    started = time.perf_counter()
+    result = recompute(bag, snapshot_times=config.study.snapshot_times + (duration,))
+    findings = completeness.check_recomputation(bag, result)
+    if findings and not allow_incomplete:
+        raise IncompleteBagError(bag.path, findings, '--allow-incomplete analyses it anyway',
+                                 note)
+    setup = result.setup
+    steps = (result.last_status or {}).get('step')
+    episode = EpisodeResult(
+        config=config, metrics=result.rows, initial_poses=setup.initial_poses,
+        final_poses=result.final_poses, final_cue=result.final_cue,
+        snapshots=result.snapshots, encounters=-1,
+        steps=steps if isinstance(steps, int) else round(result.covered
+                                                         / config.world.step_period),
+        wall_time=time.perf_counter() - started)
+    status = result.last_status or {}
+    # The embedded runner's record, less its timing, plus what a bag can tell.
+    write_episode(episode, out, runner='ros', omit=EMBEDDED_ONLY, extra={
+        'episode': setup.episode, 'bag': str(bag.path), 'recovered': note is not None,
+        'sim_time_covered': result.covered, 'complete': not findings,
+        'completeness': [finding.to_dict() for finding in findings],
+        'online_metrics': {'samples': result.online_rows,
+                           'max_abs_diff': result.online_max_diff},
+        'cue_maps': {'checked': result.cue_maps_checked,
+                     'max_abs_diff': result.cue_map_max_diff},
+        'world': {key: status.get(key) for key in ('state', 'steps', 'misses', 'dropped')}})
+    last = result.rows[-1]
+    agreement = ('no online metrics in the bag' if result.online_max_diff is None else
+                 f'online metrics agree to {result.online_max_diff:.3g}')
+    checks = ', '.join(completeness.failed_checks(findings))
+    text = (f'{out}: N={setup.population} seed={setup.seed}: mean cue {last["mean_cue"]:.2f} '
+            f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s'
+            f'{f" (INCOMPLETE: fails {checks})" if findings else ""}; '
+            f'{agreement}; {result.cue_maps_checked} cue maps match the rebuilt cue to '
+            f'{result.cue_map_max_diff}')
+    if findings:
+        text += f'\n{completeness.describe(findings)}'
+    return text + (f'\n  note: {note}' if note else '')
+
+
+# --- recover ------------------------------------------------------------------------------
+
+def recover(args: argparse.Namespace) -> int:
+    """Salvage a bag and report what was kept."""
+    try:
+        report = recover_bag(args.bag, args.out)
+    except BagError as error:
+        return _bad_bag('recover', error)
+    print(report.summary())
+    return 0
+
+
+# --- replay -------------------------------------------------------------------------------
+
+def checked_mcap(path: Path) -> tuple[Path, dict[str, str]]:
+    """The bag's .mcap after a full strict read, and its topics -> types."""
+    scan = McapScan(find_mcap(path))
+    for _ in scan:
+        pass
+    return scan.path, {topic.topic: topic.msgtype for topic in scan.topics.values()}
+
+
+def replay(args: argparse.Namespace) -> int:
+    """Publish the bag's messages on their topics, timed by their log times.
+
+    Returns:
+        0 once played; 2 for an unreadable bag; 1 for one that fails a completeness check
+        (unless ``--allow-incomplete``).
+    """
+    try:
+        (mcap, topics), note = with_recovery(args.bag, checked_mcap)
+        findings = completeness.check_bag(read_episode_bag(mcap))[1]
+    except BagError as error:
+        return _bad_bag('replay', error)
+    if findings:
+        hint = ('replaying it anyway (--allow-incomplete)' if args.allow_incomplete
+                else '--allow-incomplete replays it anyway')
+        error = IncompleteBagError(mcap, findings, hint, note)
+        if not args.allow_incomplete:
+            return _bad_bag('replay', error, INCOMPLETE)
+        print(f'warning: {error}', file=sys.stderr)
+    elif note:
+        print(f'note: {note}', file=sys.stderr)
+    from swarm_supervisor.system.replay import play  # only replay needs ROS
+
+    try:
+        count, publishers, span, wall = play(mcap, topics, rate=args.rate, delay=args.delay)
+    except BagError as error:
+        return _bad_bag('replay', error)
+    print(f'replayed {count} messages on {publishers} topics from {mcap}: {span:.3f} '
+          f's of sim time in {wall:.1f} s')
+    return 0

@@ -1,0 +1,56 @@
+"""The ``mona-swarm`` command: run an episode, run the study, replay and analyse bags, videos,
+and the ROS node system (``launch``, what scripts/swarm.sh runs).
+
+Each subcommand lives in its own module exposing ``register(subparsers)``, which adds its
+parser and sets ``handler``; a handler returns the exit status
+(:mod:`swarm_supervisor.exits`). Bad arguments and bad parameters exit with status 2 and a
+one-line message naming the problem.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from mona_controller.schema import ParameterError
+from swarm_supervisor import __version__, exits
+from swarm_world.placement import PlacementError
+
+#: Modules that contribute subcommands, in the order ``--help`` lists them, with the
+#: subcommands each adds (so a command imports only its own module's libraries).
+COMMAND_MODULES = {
+    'swarm_supervisor.cli.run': ('run',),
+    'swarm_supervisor.cli.study': ('study',),
+    'swarm_supervisor.cli.bags': ('analyze', 'replay', 'recover'),
+    'swarm_supervisor.cli.animate': ('animate',),
+    'swarm_supervisor.cli.launch': ('launch',),
+}
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser: with ``command``, only the module that provides it is loaded."""
+    parser = argparse.ArgumentParser(
+        prog='mona-swarm', epilog=exits.HELP + '.',
+        description='Mona swarm pollution-source localisation and cleanup (BEECLUST).')
+    parser.add_argument('--version', action='version', version=f'%(prog)s {__version__}')
+    subparsers = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
+    modules = [name for name, commands in COMMAND_MODULES.items() if command in commands]
+    for name in modules or COMMAND_MODULES:
+        importlib.import_module(name).register(subparsers)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the process exit status."""
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(argv[0] if argv else None)
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or exits.OK)
+    except (ParameterError, PlacementError) as error:
+        print(f'mona-swarm {args.command}: error: {error}', file=sys.stderr)
+        return exits.USAGE
+    except KeyboardInterrupt:
+        print(f'mona-swarm {args.command}: interrupted', file=sys.stderr)
+        return exits.INTERRUPTED

@@ -1,0 +1,171 @@
+"""``mona-swarm run``: one episode with the embedded runner, written to a folder.
+
+With ``--bag`` the folder also gets the bag the metrics node would have recorded
+(:mod:`swarm_supervisor.outputs.bag`), so ``analyze``, ``replay``, ``animate`` and Foxglove take
+embedded episodes like the node system's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.media.live import DEFAULT_PORT, LiveServer, LiveView, announce
+from swarm_supervisor.outputs.episode_folder import write_episode
+from swarm_supervisor.outputs.bag import BagRecorder, RecordError
+from swarm_supervisor.engine.runner import (EpisodeObserver, EpisodeResult, Pacer, run_batch,
+                                     run_episode)
+from swarm_supervisor.study import DEFAULT_BATCH_SIZE
+
+
+def register(subparsers) -> None:
+    """Add the ``run`` subcommand."""
+    parser = subparsers.add_parser(
+        'run', help='run one episode with the embedded runner',
+        description='Run one episode in one process and write metrics.csv, episode.json, '
+                    'snapshots.npz and a final cue-map PNG into --out; with --bag also its '
+                    'rosbag2/MCAP record (--out/bag), as the metrics node writes it.')
+    parser.add_argument('--population', type=int, help='number of robots N (default: config)')
+    parser.add_argument('--speed', type=bounded(float, 0, 100, 'cm/s'), metavar='CM_PER_S',
+                        help='forward speed in cm/s, e.g. 8 or 4 (default: config)')
+    parser.add_argument('--seed', type=int, nargs='+',
+                        help='episode seed (default: config); several seeds run as episodes '
+                             'stepped together (the batched engine), each into DIR/s<seed>')
+    parser.add_argument('--batch-size', type=bounded(int, 1), default=DEFAULT_BATCH_SIZE,
+                        metavar='B', help='with several seeds: episodes stepped together at '
+                        f'most (default {DEFAULT_BATCH_SIZE}); the outputs are the same for any')
+    parser.add_argument('--duration', type=float, metavar='SECONDS',
+                        help='simulated episode length (default: config)')
+    parser.add_argument('--out', type=Path, required=True, metavar='DIR',
+                        help='output folder (created)')
+    parser.add_argument('--config', type=Path, metavar='YAML',
+                        help='ROS 2 parameter file (default: ros_ws/config/mona_swarm.yaml)')
+    parser.add_argument('--bag', action='store_true',
+                        help='also record the episode into DIR/bag (rosbag2, MCAP), the same '
+                             "record the node system's metrics node writes (docs/bags.md)")
+    parser.add_argument('--live', action='store_true',
+                        help='serve the episode to Foxglove while it runs (WebSocket on '
+                             'localhost, see --port; docs/running.md)')
+    parser.add_argument('--port', type=bounded(int, 0, 65535), default=DEFAULT_PORT,
+                        help=f'--live: the WebSocket port (default {DEFAULT_PORT}; 0: any free '
+                             'one, printed)')
+    parser.add_argument('--pace', type=bounded(float, 0.001, 1e6), metavar='X',
+                        help='run at X times real time (e.g. 10: ten sim seconds per second), '
+                             'to follow it live (default: as fast as possible)')
+    parser.set_defaults(handler=run)
+
+
+def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult:
+    """The episode, with a progress bar."""
+    duration = config.episode.duration
+    with tqdm(total=duration, unit='sim s', desc=f'N={config.episode.population}',
+              disable=None, file=sys.stderr, bar_format='{l_bar}{bar}| {n:.0f}/{total:.0f} '
+              'sim s [{elapsed}<{remaining}]') as bar:
+        return run_episode(config, snapshot_times=config.study.snapshot_times + (duration,),
+                           progress=lambda t: bar.update(t - bar.n), observers=observers)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the episode (or the episodes of several seeds) and write its outputs."""
+    if args.seed is not None and len(args.seed) > 1:
+        return _run_seeds(args)
+    config = load_config(args.config)
+    episode = {key: value for key, value in (('population', args.population),
+                                              ('seed', args.seed and args.seed[0]),
+                                              ('duration', args.duration))
+               if value is not None}
+    controller = {} if args.speed is None else {'speed': args.speed / 100}
+    config = config.replace(episode=episode, controller=controller)
+    observers: list[EpisodeObserver] = []
+    recorder = None
+    if args.bag:
+        try:
+            recorder = BagRecorder(args.out)
+        except FileExistsError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+        observers.append(recorder)
+    server = None
+    if args.live:
+        try:
+            server = LiveServer(args.port)
+        except RuntimeError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+        announce(server, 'mona-swarm run')
+        observers.append(LiveView(server, pace=args.pace))
+    elif args.pace is not None:
+        observers.append(Pacer(args.pace))
+    try:
+        result = _run(config, observers)
+    finally:
+        if server is not None:
+            server.stop()
+    extra = {}
+    if recorder is not None:
+        try:
+            extra['bag'] = str(recorder.check(result).path)
+        except RecordError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 1
+    out = write_episode(result, args.out, extra=extra)
+    last = result.metrics[-1]
+    print(f'{out}: N={config.episode.population} v={config.controller.speed * 100:g} cm/s '
+          f'seed={config.episode.seed}: mean cue {last["mean_cue"]:.2f} '
+          f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s; '
+          f'{result.real_time_factor:.0f}x real time'
+          + (f'; bag {extra["bag"]}' if extra else ''))
+    return 0
+
+
+def _run_seeds(args: argparse.Namespace) -> int:
+    """Several seeds: batches of episodes stepped together, each written into DIR/s<seed> as
+    soon as it is done (the same files as ``run --seed S --out DIR/s<seed>``)."""
+    if args.live or args.pace is not None:
+        print('mona-swarm run: error: --live and --pace take one seed', file=sys.stderr)
+        return 2
+    base = load_config(args.config)
+    episode = {key: value for key, value in (('population', args.population),
+                                              ('duration', args.duration))
+               if value is not None}
+    controller = {} if args.speed is None else {'speed': args.speed / 100}
+    configs = [base.replace(episode={**episode, 'seed': seed}, controller=controller)
+               for seed in args.seed]
+    folders = [args.out / f's{seed}' for seed in args.seed]
+    times = base.study.snapshot_times + (configs[0].episode.duration,)
+    status = 0
+    for first in range(0, len(configs), args.batch_size):
+        chunk = range(first, min(first + args.batch_size, len(configs)))
+        recorders = []
+        for k in chunk:
+            try:
+                recorders.append(BagRecorder(folders[k]) if args.bag else None)
+            except FileExistsError as error:
+                print(f'mona-swarm run: error: {error}', file=sys.stderr)
+                return 2
+
+        def finished(index: int, result: EpisodeResult, chunk=chunk, recorders=recorders
+                     ) -> None:
+            nonlocal status
+            k, extra = chunk[index], {}
+            if recorders[index] is not None:
+                try:
+                    extra['bag'] = str(recorders[index].check(result).path)
+                except RecordError as error:
+                    print(f'mona-swarm run: error: {error}', file=sys.stderr)
+                    status = 1
+                    return
+            out = write_episode(result, folders[k], extra=extra)
+            last = result.metrics[-1]
+            print(f'{out}: seed={args.seed[k]}: mean cue {last["mean_cue"]:.2f} '
+                  f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s; '
+                  f'{result.real_time_factor:.0f}x real time per episode', flush=True)
+
+        run_batch([configs[k] for k in chunk], snapshot_times=times,
+                  observers=[[] if r is None else [r] for r in recorders], finished=finished)
+    return status

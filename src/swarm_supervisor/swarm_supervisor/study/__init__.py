@@ -1,0 +1,26 @@
+"""The study as data: a design of episodes, run in batches on local processes or a Dask
+cluster, resumable, tabulated as ``all_metrics.csv``.
+
+``specs`` (the episodes of a design), ``tasks`` (what a worker runs), ``local`` and
+``cluster`` (where), ``run`` (:func:`run_study`), ``table`` (episode folders as one table).
+"""
+
+from swarm_supervisor.exports import lazy_exports
+
+_WHERE = {
+    **dict.fromkeys(('EpisodeSpec', 'design', 'episode_config', 'factor_cells',
+                     'parameter_value', 'quick_study', 'snapshot_times'), 'specs'),
+    **dict.fromkeys(('EpisodeFailed', 'StudyError'), 'errors'),
+    **dict.fromkeys(('BAG_DIR', 'DEFAULT_BATCH_SIZE', 'EpisodeTask', 'make_batches',
+                     'run_and_write'), 'tasks'),
+    **dict.fromkeys(('available_cpus', 'run_local'), 'local'),
+    **dict.fromkeys(('ClusterError', 'run_on_cluster'), 'cluster'),
+    **dict.fromkeys(('EPISODES_DIR', 'PARAMETERS_FILE', 'TIMING_FILE', 'VIDEOS_DIR',
+                     'read_invocations', 'render_videos', 'run_study'), 'run'),
+    **dict.fromkeys(('KEYS', 'TABLE_COLUMNS', 'TABLE_FILE', 'design_factors', 'episode_findings',
+                     'episode_key', 'find_episodes', 'incomplete_episodes', 'read_table',
+                     'recorded_findings', 'tidy_table', 'varying_parameters', 'write_table'),
+                  'table'),
+}
+__all__ = sorted(_WHERE)
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

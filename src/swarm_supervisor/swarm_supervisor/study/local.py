@@ -1,0 +1,71 @@
+"""The study's episodes on local worker processes (a multiprocessing pool)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+from collections.abc import Sequence
+
+from tqdm import tqdm
+
+from swarm_supervisor.study import progress
+from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
+
+
+def available_cpus() -> int:
+    """The CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool | None,
+              start_method: str = 'spawn') -> dict[str, tuple[float, float]]:
+    """Run the batches of tasks (:func:`~swarm_supervisor.study.tasks.make_batches`) over a
+    pool of ``jobs`` processes, with progress bars (``shown``: True, False, or None for only
+    on a terminal).
+
+    Ctrl-C or a failed episode terminates every worker at once; the episodes written by then
+    stay on disk.
+
+    Returns:
+        folder -> (wall seconds, CPU seconds) of each episode (its share of its batch's),
+        writing included.
+    """
+    pending = [task for batch in batches for task in batch]
+    if not pending:
+        return {}
+    context = multiprocessing.get_context(start_method)
+    counter = context.Value('d', 0.0)
+    total = sum(task.config.episode.duration for task in pending)
+    ran: dict[str, tuple[float, float]] = {}
+    pool = context.Pool(jobs, initializer=progress.init_worker, initargs=(counter,))
+    bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
+                 '[{elapsed}<{remaining}]'
+    disable = None if shown is None else not shown
+    try:
+        with tqdm(total=len(pending), desc='episodes', unit='episodes', position=0,
+                  disable=disable, file=sys.stderr, bar_format=bar_format) as episodes, \
+             tqdm(total=total, desc='sim time', unit='sim s', position=1,
+                  disable=disable, file=sys.stderr, bar_format=bar_format) as seconds:
+            results = pool.imap_unordered(run_and_write, batches, chunksize=1)
+            while len(ran) < len(pending):
+                try:
+                    done = results.next(timeout=0.5)
+                except multiprocessing.TimeoutError:
+                    pass
+                else:
+                    for folder, wall, cpu in done:
+                        ran[folder] = wall, cpu
+                        progress.show_done(episodes, shown, len(ran), len(pending), folder,
+                                           wall)
+                seconds.update(min(counter.value, total) - seconds.n)
+        pool.close()
+    except BaseException:  # Ctrl-C or a failed episode: stop every worker now
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+    return ran

@@ -1,0 +1,171 @@
+"""Running a study: every missing episode of the design, kept ones checked, one table.
+
+Each episode of the design (:mod:`~swarm_supervisor.study.specs`) gets a folder
+``DIR/episodes/<name>/`` written by :func:`swarm_supervisor.outputs.write_episode`; its
+episode.json is written last, so a folder without it is half-written and is run again, while
+a complete one is kept (after checking it was run with the same parameters). The episodes
+run in batches on local processes (:mod:`~swarm_supervisor.study.local`) or a Dask cluster
+(:mod:`~swarm_supervisor.study.cluster`), and become ``all_metrics.csv``
+(:mod:`~swarm_supervisor.study.table`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from swarm_supervisor import outputs
+from swarm_supervisor.config import SwarmConfig, write_ros_yaml
+from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
+from swarm_supervisor.study.errors import StudyError
+from swarm_supervisor.study.local import available_cpus, run_local
+from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
+from swarm_supervisor.study.tasks import BAG_DIR, DEFAULT_BATCH_SIZE, EpisodeTask, make_batches
+
+EPISODES_DIR = 'episodes'
+VIDEOS_DIR = 'videos'  #: one video per design cell (``study --videos``)
+PARAMETERS_FILE = 'parameters.yaml'
+TIMING_FILE = 'study.json'
+
+
+def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
+    """The parameters as episode.json stores them (after a JSON round trip)."""
+    return json.loads(json.dumps(config.to_dict()))
+
+
+def _check_kept(folder: Path, config: SwarmConfig) -> None:
+    """Refuse to mix a finished episode run with other parameters into this study."""
+    record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+    stored = record.get('parameters', {})
+    expected = _expected_parameters(config)
+    for section, values in expected.items():
+        if section == 'study':  # the design around the episode does not change it
+            continue
+        for key, value in values.items():
+            if stored.get(section, {}).get(key) != value:
+                raise StudyError(
+                    f'{folder} was run with {section}.{key} = '
+                    f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}; '
+                    'use another --out folder or delete that episode')
+
+
+def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
+              progress: bool | None = None, start_method: str = 'spawn',
+              scheduler: str | None = None, scheduler_timeout: float = 30.0,
+              bag: bool = False, videos: bool = False,
+              batch_size: int = DEFAULT_BATCH_SIZE) -> list[dict[str, float]]:
+    """Run every missing episode of ``config.study`` into ``out_dir`` and tabulate them all.
+
+    Episodes already complete in ``out_dir/episodes`` are kept (after checking they were run
+    with the same parameters); the others run in batches of at most ``batch_size`` episodes
+    stepped together (the batched engine), costliest first, over ``jobs`` worker
+    processes; each episode is written as soon as it is done.
+    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, wall times) and
+    ``all_metrics.csv``. Ctrl-C terminates the workers; finished episodes stay on disk and the
+    next call resumes from them.
+
+    Args:
+        jobs: worker processes (default: the CPUs this process may use).
+        progress: show progress bars on stderr (None: only on a terminal).
+        start_method: the multiprocessing context ('spawn' or 'fork').
+        scheduler: the address of a Dask distributed scheduler: run the episodes on its
+            workers instead of local processes (:mod:`swarm_supervisor.study.cluster`).
+        scheduler_timeout: seconds to wait for the scheduler to answer.
+        bag: record each episode's bag (the node system's record) in its folder's ``bag/``;
+            a kept episode without one is run again.
+        videos: also render one video per cell of the design (its first seed's episode)
+            into ``out_dir/videos/`` (implies ``bag``).
+        batch_size: episodes stepped together in one worker (1: one at a time); the
+            outputs are the same for any size.
+
+    Returns:
+        The tidy table as flat rows (one dict per episode and sample), columns
+        :data:`~swarm_supervisor.study.table.TABLE_COLUMNS`.
+
+    Raises:
+        StudyError: a finished episode in ``out_dir`` was run with other parameters.
+    """
+    started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
+    out = Path(out_dir)
+    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
+    study = config.study
+    times = snapshot_times(study)
+    specs = design(config)
+    folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
+    pending: list[EpisodeTask] = []
+    for spec in specs:
+        episode = episode_config(config, spec)
+        bag = bag or videos
+        if outputs.episode_complete(folders[spec]) and (
+                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()):
+            _check_kept(folders[spec], episode)
+        else:
+            pending.append(EpisodeTask(episode, times, str(folders[spec]), bag))
+    write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
+    if scheduler:
+        from swarm_supervisor.study.cluster import run_on_cluster
+        # As many batches as a few per worker would be; the cluster's size is not known here.
+        jobs, ran = 0, run_on_cluster(make_batches(pending, batch_size, 1), scheduler,
+                                      progress, scheduler_timeout)
+    else:
+        jobs = max(1, min(jobs or available_cpus(), len(pending) or 1))
+        ran = run_local(make_batches(pending, batch_size, jobs), jobs, progress, start_method)
+    rows = tidy_table([folders[spec] for spec in specs],
+                      factors=study.factor_names).to_dict('records')
+    write_table(rows, out / TABLE_FILE)
+    rendered = render_videos(out, specs, progress) if videos else []
+    _record_invocation(out / TIMING_FILE, {
+        'started': stamp,
+        'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
+        'batch_size': batch_size,
+        'scheduler': scheduler, 'videos': [str(path.relative_to(out)) for path in rendered],
+        'wall_time_s': round(time.perf_counter() - started, 3),
+        'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
+        'episode_wall_time_s': {Path(folder).name: round(wall, 3)
+                                for folder, (wall, _) in sorted(ran.items())},
+        'episode_cpu_time_s': {Path(folder).name: round(cpu, 3)
+                               for folder, (_, cpu) in sorted(ran.items())},
+    })
+    return rows
+
+
+def render_videos(out: Path, specs: Sequence[EpisodeSpec], progress: bool | None,
+                  speedup: float = 100.0) -> list[Path]:
+    """One MP4 per cell of the design, from its first seed's episode bag, into
+    ``out/videos/<episode>.mp4`` (an existing one is kept)."""
+    from swarm_supervisor.media.video import animate  # video libraries only when asked
+
+    first = {}
+    for spec in specs:
+        first.setdefault((spec.population, spec.speed, spec.levels), spec)
+    paths = []
+    for spec in tqdm(first.values(), desc='videos', unit='videos', file=sys.stderr,
+                     disable=None if progress is None else not progress):
+        path = out / VIDEOS_DIR / f'{spec.name}.mp4'
+        if not path.exists():
+            animate(out / EPISODES_DIR / spec.name, path, speedup=speedup)
+        paths.append(path)
+    return paths
+
+
+def _record_invocation(path: Path, entry: dict[str, Any]) -> None:
+    """Append one invocation (what ran, wall times) to study.json's history."""
+    try:
+        history = json.loads(path.read_text())['invocations']
+    except (OSError, ValueError, KeyError, TypeError):
+        history = []
+    path.write_text(json.dumps({'invocations': history + [entry]}, indent=2) + '\n')
+
+
+def read_invocations(out_dir: str | Path) -> list[dict[str, Any]]:
+    """The history of ``run_study`` calls on a folder (empty if none was recorded)."""
+    try:
+        return json.loads((Path(out_dir) / TIMING_FILE).read_text())['invocations']
+    except (OSError, ValueError, KeyError, TypeError):
+        return []

@@ -1,0 +1,394 @@
+"""The node system as real processes: what ``mona-swarm launch`` (``scripts/swarm.sh``) runs.
+
+One world, one metrics node, the controllers (K robots per process) and the supervisor, each in
+its own process group in a private ROS domain, all with the one parameter file plus the run's
+overrides, which are checked with the schema before anything starts. The run waits for the
+supervisor, makes sure every node ends, and gives the verdict node by node on stderr. Exit
+status: 0 success, 1 a node failed or had to be stopped, 2 a bad option or parameter, 124
+``--timeout``, 130 / 143 SIGINT / SIGTERM. docs/running.md has the details.
+
+Across machines, each host runs a part: ``--role core`` (world, metrics, supervisor) on one,
+``--role controllers --robots 0-24`` on others, all with the same ``--domain`` and a
+``--peers`` list of the hosts' addresses, from which the launcher writes a unicast Fast DDS
+profile (the loopback profile stays the default).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from mona_controller.schema import ParameterError
+from swarm_supervisor import exits
+from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.system.processes import (PROFILE, REPO, claim_domain, describe,
+                                               groups_shm, local_address, peers_profile,
+                                               python_bin, remove_shm_leftovers,
+                                               ros_environment, start_group, stop_groups,
+                                               wait_gone, write_ros_env)
+
+PROG = 'mona-swarm launch'
+#: Node kind -> (package, executable).
+EXECUTABLES = {'world': ('swarm_world', 'world_node'),
+               'metrics': ('swarm_metrics', 'metrics_node'),
+               'controller': ('mona_controller', 'mona_controller_node'),
+               'supervisor': ('swarm_supervisor', 'supervisor_node')}
+#: Seconds the nodes get to end by themselves after the supervisor's shutdown announcement.
+SHUTDOWN_GRACE = 30.0
+#: Seconds the metrics node gets to notice a dead world and close its bag.
+BAG_GRACE = 30.0
+#: Seconds a world or metrics node may have ended cleanly before the supervisor does.
+QUIET_END = 10.0
+#: Seconds between two looks at the /dev/shm files the nodes map.
+NOTE_SHM_EVERY = 10.0
+#: What each ``--role`` starts: the whole system on one host, or the part for one host
+#: ('supervision': the core without the world, for a driver of real Monas that replaces it).
+ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
+         'core': ('world', 'metrics', 'supervisor'),
+         'supervision': ('metrics', 'supervisor'),
+         'controllers': ('controller',)}
+#: The file a ``--peers`` run writes its Fast DDS profile to, in the output folder.
+PEERS_PROFILE = 'fastdds_peers.xml'
+
+
+class UsageError(Exception):
+    """A bad option, or something missing to start: exit status 2, nothing started."""
+
+
+def check_roles(options: argparse.Namespace, population: int) -> None:
+    """The role options fit together and the population.
+
+    Raises:
+        UsageError: naming the option.
+    """
+    if options.role == 'controllers':
+        if options.robots is None:
+            raise UsageError('--role controllers needs --robots IDS (e.g. 0-24)')
+        beyond = [robot for robot in options.robots if robot >= population]
+        if beyond:
+            raise UsageError(f'--robots: robot {beyond[0]} is beyond the population of '
+                             f'{population} (ids 0..{population - 1})')
+    elif options.robots is not None:
+        raise UsageError('--robots goes with --role controllers')
+
+
+def run_overrides(options: argparse.Namespace) -> list[str]:
+    """The ``NAME:=VALUE`` overrides every node gets: the options' parameters, then ``-p``."""
+    overrides = []
+    if options.population is not None:
+        overrides.append(f'episode.population:={options.population}')
+    if options.duration is not None:
+        overrides.append(f'episode.duration:={options.duration!r}')
+    if options.seed is not None:
+        overrides.append(f'episode.seed:={options.seed}')
+    if options.speed is not None:
+        overrides.append(f'controller.speed:={options.speed / 100!r}')
+    return overrides + options.params
+
+
+def check_parameters(config_path: Path, overrides: list[str]) -> SwarmConfig:
+    """The run's parameters: the file with the overrides of model parameters (``section.key``)
+    applied and validated like the nodes do. Node options (``lockstep_deadline``) pass as is.
+
+    Raises:
+        ParameterError: naming the bad parameter.
+    """
+    config = load_config(config_path)
+    known = config.to_dict()
+    sections: dict[str, dict] = {}
+    for text in overrides:
+        name, _, value = text.partition(':=')
+        section, _, key = name.partition('.')
+        if key and section in known:
+            try:
+                sections.setdefault(section, {})[key] = yaml.safe_load(value)
+            except yaml.YAMLError:
+                raise ParameterError(f'{name} = {value!r} is not a YAML value') from None
+    config = config.replace(**sections)
+    if config.episode.population < 1:
+        raise ParameterError('episode.population = 0: a ros run needs a robot')
+    return config
+
+
+def controller_groups(population: int, per_process: int,
+                      robots: list[int] | None = None) -> list[str]:
+    """The ``--robots`` of each controller process: '0', '1', ... or '0-9', '10-19', ...,
+    for every robot of the population or only ``robots`` (in the given order)."""
+    ids = list(range(population)) if robots is None else list(robots)
+    groups = []
+    for start in range(0, len(ids), per_process):
+        chunk = ids[start:start + per_process]
+        if chunk == list(range(chunk[0], chunk[-1] + 1)):
+            groups.append(str(chunk[0]) if len(chunk) == 1 else f'{chunk[0]}-{chunk[-1]}')
+        else:
+            groups.append(','.join(map(str, chunk)))
+    return groups
+
+
+def node_commands(options: argparse.Namespace, population: int, out: Path,
+                  executables: dict[str, str]) -> dict[str, list[str]]:
+    """Node name -> command line, in start order: world, metrics, controllers, supervisor;
+    only the nodes of ``options.role`` (when given)."""
+    ros_args = ['--ros-args', '--params-file', str(options.config)]
+    for override in run_overrides(options):
+        ros_args += ['-p', override]
+    # Starting many Python processes takes a while on a small machine: scale the patience.
+    start_timeout = options.start_timeout or max(60, 3 * population)
+    commands = {
+        'world': [executables['world'], *ros_args, '-p', f'mode:={options.mode}',
+                  '-p', f'output_dir:={out}', '-p', f'start_timeout:={start_timeout}.0',
+                  '-p', 'recorders:=metrics'],
+        'metrics': [executables['metrics'], *ros_args, '-p', f'output_dir:={out}']}
+    for robots in controller_groups(population, options.per_process,
+                                    getattr(options, 'robots', None)):
+        commands[f'controller_{robots}'] = [executables['controller'], '--robots', robots,
+                                            *ros_args]
+    commands['supervisor'] = [executables['supervisor'], *ros_args,
+                              '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
+                              '-p', 'recorders:=metrics']
+    if getattr(options, 'live', False):
+        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.live_node',
+                            '--ros-args', '-p', f'port:={options.live_port}']
+    kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
+    return {name: command for name, command in commands.items()
+            if name.partition('_')[0] in kinds}
+
+
+def find_executable(package: str, name: str) -> str:
+    """A node executable: next to this Python or on PATH (pip), else in a sourced colcon
+    workspace (``$AMENT_PREFIX_PATH/lib/<package>/<name>``)."""
+    found = shutil.which(name, path=f'{python_bin()}{os.pathsep}{os.environ.get("PATH", "")}')
+    if found:
+        return found
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        candidate = Path(prefix) / 'lib' / package / name
+        if candidate.is_file() and os.access(candidate, os.X_OK):
+            return str(candidate)
+    raise UsageError(f"cannot find {name} ({package}): run 'make venv', or source a colcon "
+                     'workspace (ros_ws/README.md)')
+
+
+def forced_domain() -> int | None:
+    """The domain id of ``SWARM_DOMAIN_ID``, if set (the caller's choice: no lock, no check)."""
+    text = os.environ.get('SWARM_DOMAIN_ID', '')
+    if not text:
+        return None
+    if not (text.isdigit() and int(text) <= 232):
+        raise UsageError(f"SWARM_DOMAIN_ID '{text}': expected 0..232")
+    return int(text)
+
+
+def say(message: str) -> None:
+    """One line of the launcher's own on stderr."""
+    print(f'{PROG}: {message}', file=sys.stderr, flush=True)
+
+
+def last_error(log: Path) -> str:
+    """The message of the last [ERROR] or [FATAL] line of a node's log, or ''."""
+    try:
+        lines = log.read_text(errors='replace').splitlines()
+    except OSError:
+        return ''
+    errors = [line for line in lines if line.startswith(('[ERROR]', '[FATAL]'))]
+    return errors[-1].split(']: ', 1)[-1] if errors else ''
+
+
+class Run:
+    """The node processes of one run, by name, and how each of them ended."""
+
+    def __init__(self, out: Path, env: dict[str, str], domain: int,
+                 pass_fds: tuple[int, ...], timeout: int = 0) -> None:
+        self.out = out
+        self.timeout = timeout
+        self.env = env
+        self.domain = domain
+        self.pass_fds = pass_fds
+        self.nodes: dict[str, subprocess.Popen] = {}
+        self.stopping = ''  # the name of the signal that asked us to stop
+        self.needed: dict[int, signal.Signals] = {}  # pid -> last signal of the stop ladder
+        self.seen_shm: set[str] = set()
+        (out / 'processes.tsv').write_text('')
+
+    def catch(self, sig: int, frame: object) -> None:
+        """Signal handler: remember that we were asked to stop."""
+        self.stopping = signal.Signals(sig).name
+
+    def interrupted(self) -> bool:
+        return bool(self.stopping)
+
+    def start(self, name: str, command: list[str]) -> None:
+        """Start a node (its own process group, logs/<name>.log) and list it in processes.tsv.
+        It inherits the domain's lock: the domain stays taken while any node lives."""
+        process = start_group(command, self.out / 'logs' / f'{name}.log', self.env,
+                              self.pass_fds)
+        self.nodes[name] = process
+        with open(self.out / 'processes.tsv', 'a') as table:
+            table.write(f'{name}\t{process.pid}\t{" ".join(command)}\n')
+
+    def live(self) -> list[subprocess.Popen]:
+        return [process for process in self.nodes.values() if process.poll() is None]
+
+    def note_shm(self) -> None:
+        """Remember the Fast DDS /dev/shm files the nodes map (a killed one cannot tell)."""
+        self.seen_shm |= groups_shm([process.pid for process in self.live()])
+
+    def wait(self) -> str:
+        """Wait for the supervisor: 'finished' or 'failed' with it, 'failed' when the world or
+        the metrics node ends first, 'timeout', or '' when a signal came. A controller that
+        dies is the world's business (it counts the misses) and fails the run later.
+
+        Without a supervisor here (``--role controllers``) the run is over when every node
+        has ended ('finished'): controllers end on the supervisor's shutdown announcement,
+        wherever the supervisor runs.
+        """
+        started = noted = time.monotonic()
+        clean_end: dict[str, float] = {}
+        while not self.stopping:
+            time.sleep(0.5)
+            if 'supervisor' not in self.nodes and not self.live():
+                return 'finished'
+            status = self.nodes['supervisor'].poll() if 'supervisor' in self.nodes else None
+            if status is not None:
+                return 'finished' if status == 0 else 'failed'
+            now = time.monotonic()
+            for name in ('world', 'metrics'):  # a clean end comes with the supervisor's
+                if name not in self.nodes:
+                    continue
+                status = self.nodes[name].poll()
+                if status is None:
+                    continue
+                clean_end.setdefault(name, now)
+                if status != 0 or now - clean_end[name] > QUIET_END:
+                    say(f'{name} ended ({describe(status)}) during the run: stopping the run')
+                    return 'failed'
+            if now - noted >= NOTE_SHM_EVERY:
+                self.note_shm()
+                noted = now
+            if self.timeout and now - started > self.timeout:
+                say(f'no result after the --timeout of {self.timeout} s: stopping the run')
+                return 'timeout'
+        return ''
+
+    def wind_down(self, outcome: str) -> None:
+        """Give the nodes their chance to end by themselves (a signal cuts it short)."""
+        if outcome == 'finished':
+            # After the shutdown announcement the nodes end by themselves; give them time to.
+            wait_gone(self.live(), SHUTDOWN_GRACE, self.interrupted)
+        elif outcome == 'failed' and 'world' in self.nodes \
+                and self.nodes['world'].poll() is not None \
+                and self.nodes['metrics'].poll() is None:
+            say(f'waiting up to {BAG_GRACE:g} s for the metrics node to notice and close its bag')
+            wait_gone([self.nodes['metrics']], BAG_GRACE, self.interrupted)
+
+    def stop(self) -> None:
+        """Stop every node still running with the signal ladder, then remove our /dev/shm
+        leftovers: our domain's port files and the files our nodes mapped, unless in use."""
+        self.note_shm()
+        self.needed.update(stop_groups(list(self.nodes.values()), say=say))
+        remove_shm_leftovers(self.domain, self.seen_shm)
+
+    def verdict(self, outcome: str) -> int:
+        """Name every node that failed on stderr; return how many did."""
+        failures = 0
+        for name, process in self.nodes.items():
+            what = f'{name} (pid {process.pid})'
+            log = self.out / 'logs' / f'{name}.log'
+            needed = self.needed.get(process.pid)
+            if needed is not None and needed != signal.SIGINT:
+                say(f'FAILED {what}: did not stop on SIGINT, ended by {needed.name}; see {log}')
+            elif needed is not None:
+                # Stopped by us: fine after a signal or another node's failure. After a
+                # finished run it should have ended by itself on the shutdown announcement;
+                # one that had to be stopped may not have closed its outputs.
+                if outcome != 'finished':
+                    continue
+                say(f'FAILED {what}: did not end by itself after the shutdown; stopped by '
+                    f'SIGINT; see {log}')
+            elif process.returncode != 0:
+                say(f'FAILED {what}: {describe(process.returncode)}; see {log}')
+                reason = last_error(log)
+                if reason:
+                    say(f'  its last error: {reason}')
+            else:
+                continue
+            failures += 1
+        return failures
+
+
+def launch(options: argparse.Namespace) -> int:
+    """Run the node system of ``options`` (``mona-swarm launch``); returns the exit status
+    (:mod:`swarm_supervisor.exits`)."""
+    try:
+        executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
+        config = check_parameters(options.config, run_overrides(options))
+        check_roles(options, config.episode.population)
+        domain = options.domain if options.domain is not None else forced_domain()
+        if options.role != 'all' and domain is None:
+            raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
+                             'host), so that the hosts of the run find each other')
+        address = local_address(options.peers) if options.peers else None
+        if options.peers and address is None:
+            raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
+                             "host; list every host's address, this one's too")
+    except UsageError as error:
+        say(str(error))
+        return exits.USAGE
+    except ParameterError as error:
+        say(f'bad parameter: {error}')
+        return exits.USAGE
+    out = options.out or REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    try:
+        (out / 'logs').mkdir(parents=True, exist_ok=True)
+    except OSError:
+        say(f"cannot create '{out / 'logs'}'")
+        return exits.USAGE
+    out = out.resolve()
+    lock = None
+    if domain is None:
+        try:
+            domain, lock = claim_domain()
+        except RuntimeError as error:
+            say(str(error))
+            return exits.USAGE
+
+    profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(PROFILE)
+    if options.peers:
+        profile = str(out / PEERS_PROFILE)
+        Path(profile).write_text(peers_profile(address, options.peers))
+    env = ros_environment(domain, Path(profile), log_dir=out / 'logs' / 'ros')
+    write_ros_env(out / 'ros_env.sh', env)
+    run = Run(out, env, domain, (lock.fileno(),) if lock else (), options.timeout)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, run.catch)
+    population = config.episode.population
+    part = '' if options.role == 'all' else f', role {options.role}'
+    network = f', peers {",".join(options.peers)} (here {address})' if options.peers else ''
+    say(f'domain {domain}, {population} robots, {options.episodes} episode(s), '
+        f'{options.mode}{part}{network}, output {out}')
+    outcome = ''
+    try:
+        for name, command in node_commands(options, population, out, executables).items():
+            run.start(name, command)
+        outcome = run.wait()
+        if run.stopping:
+            say(f'{run.stopping} received: stopping every node')
+        run.wind_down(outcome)
+    finally:  # also on an unexpected error here: no node outlives the run
+        run.stop()
+    failures = run.verdict(outcome)
+    if outcome == 'finished':
+        if failures:
+            return exits.FAILED
+        say(f'done: {out}')
+        return exits.OK
+    if outcome in ('failed', 'timeout'):
+        return exits.FAILED if outcome == 'failed' else exits.TIMEOUT
+    return exits.INTERRUPTED if run.stopping == 'SIGINT' else exits.TERMINATED

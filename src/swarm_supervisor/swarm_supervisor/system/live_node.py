@@ -1,0 +1,165 @@
+"""The live node: the node system's episode served to Foxglove (``scripts/swarm.sh --live``).
+
+A thin adapter: it subscribes to the world's, the supervisor's and the metrics node's topics
+as raw CDR (the bytes the metrics node records) and forwards them to a
+:class:`~swarm_supervisor.media.live.LiveServer`, so Foxglove decodes them with their own ROS 2
+definitions and the live view equals the bag. The frequent topics are thinned to what a
+person can watch (poses, markers and clock at most ``rate`` per wall second, the cue map and
+grid ``map_rate``); the announcement and the latest status are repeated once a second for a
+client that connects late. Exit status: 0 after the supervisor's shutdown announcement or
+SIGINT/SIGTERM, 2 for a bad parameter or a port it cannot listen on.
+
+    python -m swarm_supervisor.system.live_node --ros-args -p port:=8765
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+
+import rclpy
+from geometry_msgs.msg import PoseArray
+from nav_msgs.msg import OccupancyGrid
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.task import Future
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import Image
+from std_msgs.msg import Float64, String
+from visualization_msgs.msg import MarkerArray
+
+from mona_controller import qos
+from mona_controller.ros_params import declare_section
+from mona_controller.schema import ParameterError, param, validate
+from mona_controller.shutdown import teardown
+from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics_node import METRICS_QOS
+from swarm_metrics.recording import stamp_ns
+from swarm_supervisor.media.live import DEFAULT_PORT, LIVE_TOPICS, MAP_RATE, RATE, LiveServer
+from swarm_supervisor.outputs.bag import ROBOT_STATES
+
+#: What the node system's live view carries: everything the embedded one does but the
+#: controllers' states, which are on no topic.
+NODE_TOPICS = {topic: msgtype for topic, msgtype in LIVE_TOPICS.items()
+               if topic != ROBOT_STATES}
+
+
+@dataclasses.dataclass(frozen=True)
+class LiveNodeParams:
+    """Options of the live node."""
+
+    port: int = param(DEFAULT_PORT, low=0, high=65535,
+                      doc='WebSocket port of the live view (0: any free one, logged)')
+    host: str = param('127.0.0.1', doc='interface to listen on (localhost: nothing leaves '
+                                       'the machine)')
+    rate: float = param(RATE, unit='1/s (wall)', low=0.1, high=1000.0,
+                        doc='poses, markers and clock forwarded per wall second, at most')
+    map_rate: float = param(MAP_RATE, unit='1/s (wall)', low=0.1, high=1000.0,
+                            doc='cue maps and grids forwarded per wall second, at most')
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+class LiveNode(Node):
+    """Forwards the recorded topics to Foxglove clients."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('live', **kwargs)
+        self.options = declare_section(self, LiveNodeParams)
+        self.done = Future()  #: set to the exit status when the node should stop
+        self.server = LiveServer(self.options.port, self.options.host, NODE_TOPICS)
+        period, map_period = 1.0 / self.options.rate, 1.0 / self.options.map_rate
+        self.min_interval = {qos.POSES: period, qos.MARKERS: period, qos.CLOCK: period,
+                             qos.CUE_MAP: map_period, qos.CUE_GRID: map_period}
+        self.last_sent: dict[str, float] = {}
+        self.sim_ns = 0  # the latest sim time seen: the log time of unstamped messages
+        self.latched: dict[str, bytes] = {}  # the announcement and the latest status
+        stamped = {qos.POSES: (PoseArray, qos.POSES_QOS), qos.CLOCK: (ClockMsg, qos.CLOCK_QOS),
+                   qos.CUE_MAP: (Image, qos.MAP_QOS), qos.CUE_GRID: (OccupancyGrid, qos.MAP_QOS),
+                   qos.MARKERS: (MarkerArray, qos.MARKERS_QOS)}
+        for topic, (msg_class, profile) in stamped.items():
+            self._subscribe(msg_class, topic, profile, self._on_stamped)
+        self._subscribe(String, qos.EPISODE, qos.EPISODE_QOS, self._on_episode)
+        self._subscribe(String, qos.STATUS, qos.STATUS_QOS, self._on_status)
+        for name in METRIC_NAMES:
+            self._subscribe(Float64, f'/metrics/{name}', METRICS_QOS, self._on_unstamped)
+        self.create_timer(1.0, self._repeat, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(f'live view on {self.server.url}')
+
+    def _subscribe(self, msg_class: type, topic: str, profile, callback) -> None:
+        self.create_subscription(msg_class, topic, lambda data, t=topic: callback(t, data),
+                                 profile, raw=True)
+
+    def _due(self, topic: str) -> bool:
+        """Whether a message of ``topic`` goes out now (the frequent ones are thinned)."""
+        if not self.server.wanted(topic):
+            return False
+        interval = self.min_interval.get(topic)
+        if interval is None:
+            return True
+        now = time.monotonic()
+        if now - self.last_sent.get(topic, -interval) < interval:
+            return False
+        self.last_sent[topic] = now
+        return True
+
+    def _on_stamped(self, topic: str, data: bytes) -> None:
+        stamp = stamp_ns(data)
+        if stamp > self.sim_ns:
+            self.sim_ns = stamp
+            self.server.set_time(stamp)
+        if self._due(topic):
+            self.server.publish(topic, stamp, bytes(data))
+
+    def _on_unstamped(self, topic: str, data: bytes) -> None:
+        # A metric sample is published just after the pose that completes it: the latest
+        # sim time is that pose's, within a sample period of the sample's own time.
+        self.server.publish(topic, self.sim_ns, bytes(data))
+
+    def _on_status(self, topic: str, data: bytes) -> None:
+        self.latched[topic] = bytes(data)
+        self.server.publish(topic, self.sim_ns, bytes(data))
+
+    def _on_episode(self, topic: str, data: bytes) -> None:
+        document = json.loads(bytes(data)[8:].rstrip(b'\x00').decode())
+        if document.get('shutdown'):
+            self.get_logger().info('shutdown announced')
+            if not self.done.done():
+                self.done.set_result(0)
+            return
+        self.latched[topic] = bytes(data)
+        self.server.publish(topic, int(document.get('start_ns', self.sim_ns)), bytes(data))
+
+    def _repeat(self) -> None:
+        """The announcement and the latest status again, for clients that joined since."""
+        for topic, data in self.latched.items():
+            self.server.publish(topic, self.sim_ns, data)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Run the live node until the shutdown announcement or a signal."""
+    rclpy.init(args=args)
+    node = None
+    status = 1
+    try:
+        node = LiveNode()
+        rclpy.spin_until_future_complete(node, node.done)
+        status = node.done.result() if node.done.done() else 0
+    except (KeyboardInterrupt, ExternalShutdownException):
+        status = 0
+    except (ParameterError, RuntimeError) as error:
+        rclpy.logging.get_logger('live').fatal(str(error))
+        status = 2
+    finally:
+        if node is not None:
+            node.server.stop()
+        teardown([node], exit_status=status)
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())
