@@ -9,11 +9,10 @@ episode with the embedded runner (``run_episode``: set-up, placement, every step
 metrics sample, as ``mona-swarm run`` does, outputs excepted) and prints simulated seconds per
 wall second and per CPU second; then the same episode again with ``Episode(profile=True)`` for
 the split of a step (ground sensors, IR, controller, physics + cleaning, metrics samples).
-A benchmark, not a test: the numbers depend on the machine and its load. Targets (issue 13):
-N = 10,000 at 1x real time or better on one core, N = 1,000 at 20x, N = 50 as fast as before
-(issue 2: at least 250x).
+A benchmark, not a test: the numbers depend on the machine and its load. Targets:
+N = 10,000 at 1x real time or better on one core, N = 1,000 at 20x, N = 50 at least 250x.
 
-First, the batched engine (issue 14): for N = 10 and 50 in the shipped arena, batches of 1, 4,
+First, the batched engine: for N = 10 and 50 in the shipped arena, batches of 1, 4,
 16 and 64 episodes (seeds 1..K) stepped together by ``run_batch``, each episode's real-time
 factor (K x sim seconds per wall second) and the split of a step per episode (a profiled
 batch; metrics samples and bookkeeping are the rest). Target: N = 50 at 900x per episode in
@@ -40,7 +39,7 @@ from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 
 #: The paper's largest swarm, which the shipped arena holds: the density every N runs at.
 REFERENCE_POPULATION = 50
-#: Real-time targets (issue 13): the population and the factor it must reach.
+#: Real-time targets: the population and the factor it must reach.
 TARGETS = {50: 250.0, 1000: 20.0, 10000: 1.0}
 
 
@@ -76,7 +75,7 @@ def split(config: SwarmConfig) -> tuple[dict[str, float], float]:
     return {key: value / episode.steps_done * 1e6 for key, value in spent.items()}, setup
 
 
-#: The batched engine's target (issue 14): N = 50 at this real-time factor per episode, in
+#: The batched engine's target: N = 50 at this real-time factor per episode, in
 #: batches of the study's default size.
 BATCH_TARGET = (50, 900.0)
 

@@ -5,7 +5,7 @@ ros_ws/config/designs/moving_leaks.yaml (two moving, leaking sources, evaporatio
 diffusion at the design's upper level, 1e-4 m^2/s: 5 substeps per transport tick), alternating
 the two ``--rounds`` times so a change in machine load hits both alike. Prints each run's real
 time factor (sim seconds per wall second, and per CPU second: steadier on a shared machine)
-and the medians. Target (issue 12): the scenario
+and the medians. Target: the scenario
 above 250x, and the paper's field as fast as without the feature.
 
     .venv/bin/python bench/bench_leaks.py [--duration 400] [--rounds 3]

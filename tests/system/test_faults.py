@@ -1,4 +1,4 @@
-"""Faults with real processes and real signals (issue 5): a controller, the world or the
+"""Faults with real processes and real signals: a controller, the world or the
 metrics node is SIGKILLed in the middle of a lockstep episode started by scripts/swarm.sh.
 docs/reliability.md lists what the system does in each case; these tests show it."""
 

@@ -1,4 +1,4 @@
-"""The node system across two "hosts" (issue 13): two network namespaces joined by a veth pair,
+"""The node system across two "hosts": two network namespaces joined by a veth pair,
 the core (world, metrics, supervisor) in one, the five controllers in the other, discovering
 each other by unicast over the veth with the profile ``--peers`` writes. A 60 s lockstep
 episode must give the single-host run's record: test_system.py holds the single-host bag to the

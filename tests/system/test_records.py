@@ -1,4 +1,4 @@
-"""Records you can trust on a busy machine (issue 8): the metrics node stalled (SIGSTOP) at
+"""Records you can trust on a busy machine: the metrics node stalled (SIGSTOP) at
 each moment that used to lose the start of an episode, started late, or never ready. The
 episode waits for its recorder, and the bag equals the embedded run; a run whose record is
 incomplete never exits 0."""

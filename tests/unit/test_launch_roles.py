@@ -1,4 +1,4 @@
-"""The launcher's roles and LAN profile without ROS (issue 13): what ``--role`` starts, which
+"""The launcher's roles and LAN profile without ROS: what ``--role`` starts, which
 robots ``--robots`` gives a host, the split runs it refuses, and the ``--peers`` profile."""
 
 from __future__ import annotations

@@ -77,8 +77,9 @@ DESIGN_KEYS = {'episode.population': 'study.populations', 'controller.speed': 's
 
 @dataclasses.dataclass(frozen=True)
 class StudyParams:
-    """The factorial design of the study (method.md): populations x speeds x seeds, crossed
-    with any extra factors: other parameters, each with a list of levels."""
+    """The factorial design of the study (the paper's section on experiments; docs/study.md):
+    populations x speeds x seeds, crossed with any extra factors: other parameters, each with a
+    list of levels."""
 
     populations: tuple[int, ...] = param((10, 20, 30, 40, 50), unit='robots', low=0,
                                          high=100_000, doc='population factor N')
