@@ -22,6 +22,7 @@ setup(
         'matplotlib',
         'statsmodels',
         'pandas',
+        'optuna',
         'mona_controller',
         'swarm_world',
         'swarm_metrics',

@@ -55,6 +55,32 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
                     'use another --out folder or delete that episode')
 
 
+def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False
+         ) -> tuple[list[EpisodeSpec], dict[EpisodeSpec, Path], list[EpisodeTask]]:
+    """The episodes of ``config.study`` in ``out_dir``: every spec, its folder, and the tasks of
+    those not yet complete there (``bag``: also those without their bag).
+
+    Episodes already complete are kept, after checking they were run with the same parameters.
+
+    Raises:
+        StudyError: a finished episode in ``out_dir`` was run with other parameters.
+    """
+    out = Path(out_dir)
+    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
+    times = snapshot_times(config.study)
+    specs = design(config)
+    folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
+    pending: list[EpisodeTask] = []
+    for spec in specs:
+        episode = episode_config(config, spec)
+        if outputs.episode_complete(folders[spec]) and (
+                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()):
+            _check_kept(folders[spec], episode)
+        else:
+            pending.append(EpisodeTask(episode, times, str(folders[spec]), bag))
+    return specs, folders, pending
+
+
 def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
               progress: bool | None = None, start_method: str = 'spawn',
               scheduler: str | None = None, scheduler_timeout: float = 30.0,
@@ -93,31 +119,13 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     """
     started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
     out = Path(out_dir)
-    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
-    study = config.study
-    times = snapshot_times(study)
-    specs = design(config)
-    folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
-    pending: list[EpisodeTask] = []
-    for spec in specs:
-        episode = episode_config(config, spec)
-        bag = bag or videos
-        if outputs.episode_complete(folders[spec]) and (
-                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()):
-            _check_kept(folders[spec], episode)
-        else:
-            pending.append(EpisodeTask(episode, times, str(folders[spec]), bag))
+    specs, folders, pending = plan(config, out, bag=bag or videos)
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
-    if scheduler:
-        from swarm_supervisor.study.cluster import run_on_cluster
-        # As many batches as a few per worker would be; the cluster's size is not known here.
-        jobs, ran = 0, run_on_cluster(make_batches(pending, batch_size, 1), scheduler,
-                                      progress, scheduler_timeout)
-    else:
-        jobs = max(1, min(jobs or available_cpus(), len(pending) or 1))
-        ran = run_local(make_batches(pending, batch_size, jobs), jobs, progress, start_method)
+    jobs, ran = run_tasks(pending, jobs=jobs, progress=progress, start_method=start_method,
+                          scheduler=scheduler, scheduler_timeout=scheduler_timeout,
+                          batch_size=batch_size)
     rows = tidy_table([folders[spec] for spec in specs],
-                      factors=study.factor_names).to_dict('records')
+                      factors=config.study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
     rendered = render_videos(out, specs, progress) if videos else []
     _record_invocation(out / TIMING_FILE, {
@@ -133,6 +141,25 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
                                for folder, (_, cpu) in sorted(ran.items())},
     })
     return rows
+
+
+def run_tasks(pending: Sequence[EpisodeTask], *, jobs: int | None = None,
+              progress: bool | None = None, start_method: str = 'spawn',
+              scheduler: str | None = None, scheduler_timeout: float = 30.0,
+              batch_size: int = DEFAULT_BATCH_SIZE) -> tuple[int, dict[str, tuple[float, float]]]:
+    """Run the tasks in batches on local processes or, with ``scheduler``, a Dask cluster
+    (arguments as :func:`run_study`'s).
+
+    Returns:
+        (the worker processes used, 0 on a cluster; folder -> (wall s, CPU s) of each episode).
+    """
+    if scheduler:
+        from swarm_supervisor.study.cluster import run_on_cluster
+        # As many batches as a few per worker would be; the cluster's size is not known here.
+        return 0, run_on_cluster(make_batches(pending, batch_size, 1), scheduler, progress,
+                                 scheduler_timeout)
+    jobs = max(1, min(jobs or available_cpus(), len(pending) or 1))
+    return jobs, run_local(make_batches(pending, batch_size, jobs), jobs, progress, start_method)
 
 
 def render_videos(out: Path, specs: Sequence[EpisodeSpec], progress: bool | None,
