@@ -57,15 +57,25 @@ def test_two_episodes_match_the_embedded_runner(executor, spin_until, tmp_path):
                               world.world.initial_cue)
 
 
+#: Parameter sets off their defaults that every node must apply as the embedded runner does.
+MODELS = {
+    # The sweepable decisions and the noise streams, drawn in the world from the seed.
+    'decisions-and-noise': {
+        'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
+        'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
+        'world.cleaning': 'literal',
+        'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05},
+    # The controllers answer every third step; the world holds their commands between.
+    'control-period': {'world.control_steps': 3, 'mona.ground_noise': 3.0},
+}
+
+
+@pytest.mark.parametrize('name', sorted(MODELS))
 def test_non_default_model_parameters_match_the_embedded_runner(executor, spin_until,
-                                                                tmp_path):
-    """The sweepable decisions and the noise reach every node: a lockstep episode with
-    several of them off their defaults equals the embedded runner with the same parameters."""
-    model = {'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
-             'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
-             'world.cleaning': 'literal',
-             # and the noise streams, drawn in the world from the announced seed
-             'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05}
+                                                                tmp_path, name):
+    """A lockstep episode with parameters off their defaults equals the embedded runner with
+    the same parameters: each reaches every node."""
+    model = MODELS[name]
     population, duration, seed = 12, 6.0, 5
     overrides = [Parameter(key, value=value) for key, value in model.items()]
     overrides += [Parameter('episode.population', value=population),

@@ -51,7 +51,8 @@ class Lockstep:
         population: the episode's robots, ids ``0 .. population - 1``.
         start_ns: sim time of the episode's step 0 (older stamps are not of this episode).
         absent_after: misses in a row after which a robot is absent.
-        step_ns: the step (realtime: a command is stale after ``absent_after`` steps).
+        step_ns: a round's period, the control step (realtime: a command is stale after
+            ``absent_after`` of them).
     """
 
     def __init__(self, population: int, start_ns: int, absent_after: int,

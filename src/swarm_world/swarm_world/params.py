@@ -23,7 +23,11 @@ class WorldParams:
     cue_peak: float = param(255.0, unit='cue units', low=0.0, high=255.0,
                             doc='cue intensity at the disc centre, falling linearly to 0')
     step_period: float = param(0.032, unit='s', low=0.001, high=1.0,
-                               doc='simulated time per step (the control period)')
+                               doc='simulated time per step (physics, sensing)')
+    control_steps: int = param(1, unit='steps', low=1, high=1000,
+                               doc='world steps per control step: the controllers answer every '
+                                   'k-th step and the wheels hold their command in between '
+                                   '(the control period is k x step_period)')
     cleaning: str = param('monotone', choices=CLEANING_MODES,
                           doc="eq. 3 as 'monotone' (each cell loses the amount) or "
                               "'literal' (cell = mean reading - amount, the paper's text)")

@@ -182,8 +182,9 @@ class WorldNode(Node):
         self.world.reset(np.array(announcement.poses), announcement.seed)
         self.start_ns = self.time_ns = announcement.start_ns
         self.total_steps = steps_for(announcement.duration, self.params.step_ns)
+        # A round is a control step: realtime counts a command stale in control steps.
         self.lockstep = Lockstep(population, self.start_ns, self.options.absent_after,
-                                 self.params.step_ns)
+                                 self.params.step_ns * self.params.control_steps)
         self.cleaning_events = 0
         while len(self.links) < population:
             self.links.append(RobotLink(self, len(self.links), self.mona, self.on_cleaner,
@@ -419,22 +420,32 @@ class WorldNode(Node):
             self.publish_status()
 
     def _advance(self) -> None:
-        """Apply the round's commands, step the world, publish, start the next round."""
+        """Apply the round's commands for a control period (``control_steps`` steps, the
+        wheels holding them), publishing as the world steps, then start the next round."""
         if self.resend_timer is not None:
             self.destroy_timer(self.resend_timer)
             self.resend_timer = None
             self.get_logger().info(f'episode {self.episode}: step 0 done, stepping')
         self._step()
+        while self.world.steps % self.params.control_steps and \
+                self.world.steps < self.total_steps:
+            self._publish_poses()  # every step's, as the recorders sample them
+            self._step()
         self._start_round()
 
     def on_realtime_tick(self) -> None:
-        """Realtime: step with each robot's latest command; stale ones hold still."""
-        self.lockstep.realtime_step(self.time_ns)
+        """Realtime: step with each robot's latest command; stale ones hold still. Readings go
+        out at every control step; the poses at every step."""
+        if self.world.steps % self.params.control_steps == 0:
+            self.lockstep.realtime_step(self.time_ns)
         self._step()
         if self.world.steps >= self.total_steps:
             self._finish()
             return
-        self._publish_readings()
+        if self.world.steps % self.params.control_steps == 0:
+            self._publish_readings()
+        else:
+            self._publish_poses()
 
     def _step(self) -> None:
         before = self.time_ns
@@ -452,9 +463,12 @@ class WorldNode(Node):
         if crossed(relative_before, relative, self.status_ns):
             self.publish_status()
 
+    def _publish_poses(self) -> None:
+        self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+
     def _publish_readings(self) -> None:
         readings = self.world.sense()
-        self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+        self._publish_poses()
         for link, ground, ranges, is_robot in zip(self.links, readings.ground, readings.ranges,
                                                   readings.is_robot):
             link.publish(ground, ranges, is_robot, self.time_ns)

@@ -12,8 +12,8 @@ Exactness: every number an episode computes is computed from its own inputs by t
 operations as alone (element-wise arithmetic, the same compiled kernels on its own rows, the
 same per-robot generators), so an episode's outputs are byte-identical to a lone run's for
 any batch composition and order (tests/unit/test_batch.py). The episodes must share the step
-period (they step together) and the number of IR beams (their readings are one array); any
-other parameter may differ. An episode that is done leaves the batch; the rest go on.
+and control periods (they step together) and the number of IR beams (their readings are one
+array); any other parameter may differ. An episode that is done leaves the batch; the rest go on.
 """
 
 from __future__ import annotations
@@ -33,12 +33,13 @@ from swarm_world.world import Readings, WorldBatch
 
 
 class BatchError(ValueError):
-    """The episodes cannot be stepped together (different step periods or IR rings)."""
+    """The episodes cannot be stepped together (other step or control periods, IR rings)."""
 
 
-def batch_key(config: SwarmConfig) -> tuple[int, int]:
-    """What episodes stepped together must share: the step period (ns) and the IR beams."""
-    return config.world.step_ns, config.mona.ir_count
+def batch_key(config: SwarmConfig) -> tuple[int, int, int]:
+    """What episodes stepped together must share: the step period (ns), the control period
+    (steps) and the IR beams."""
+    return config.world.step_ns, config.world.control_steps, config.mona.ir_count
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,8 +71,9 @@ class Batch:
         self.members = list(episodes)
         keys = {batch_key(member.config) for member in self.members}
         if len(keys) > 1:
-            raise BatchError('episodes stepped together must share the step period and the '
-                             f'number of IR beams; got (step ns, beams) {sorted(keys)}')
+            raise BatchError('episodes stepped together must share the step and control periods '
+                             'and the number of IR beams; got (step ns, control steps, '
+                             f'beams) {sorted(keys)}')
         #: Seconds spent in each of PARTS, summed over steps; None when not profiled.
         self.profile = dict.fromkeys(PARTS, 0.0) if profile else None
         self.active: list[Episode] = []
@@ -100,6 +102,10 @@ class Batch:
             np.repeat([mona.wheel_unit_speed for mona in monas], self._counts),
             np.repeat([mona.wheel_separation for mona in monas], self._counts))
         self.controller = SwarmController.merge([member.controllers for member in self.active])
+        self._control_steps = self.active[0].control_steps
+        # The answer the wheels hold between control steps: each running member's latest.
+        self._held = Command(np.concatenate([member.command.wheels for member in self.active]),
+                             np.concatenate([member.command.cleaner for member in self.active]))
 
     def sense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every running robot's readings now, episode after episode: (ground [R, 2] uint8,
@@ -118,9 +124,10 @@ class Batch:
         order. Episodes that are done after it leave the batch."""
         if self.profile is not None:
             return self._profiled_step()
-        ground, ranges, is_robot = self.sense()
-        command = self.controller.step(ground, ranges, is_robot, self._now())
-        return self._advance(command)
+        if self.active[0].steps_done % self._control_steps == 0:  # members step together
+            ground, ranges, is_robot = self.sense()
+            self._held = self.controller.step(ground, ranges, is_robot, self._now())
+        return self._advance(self._held)
 
     def _now(self) -> np.ndarray:
         """Each running robot's sim time (s): its episode's ``time_ns / 1e9``."""
@@ -134,9 +141,10 @@ class Batch:
         steps = []
         for member, rows, start in zip(self.active, self._slices, before):
             world = member.world
+            member.command = Command(command.wheels[rows], command.cleaner[rows])
             steps.append((member, Step(
                 start, world.time_ns, crossed(start, world.time_ns, member.sample_ns),
-                world.cleaned, Command(command.wheels[rows], command.cleaner[rows]))))
+                world.cleaned, member.command)))
         self._steps_left -= 1
         if self._steps_left <= 0:
             self._regroup()
@@ -144,14 +152,15 @@ class Batch:
 
     def _profiled_step(self) -> list[tuple[Episode, Step]]:
         spent, clock = self.profile, time.perf_counter
-        t0 = clock()
-        ground = self.worlds.ground()
-        t1 = clock()
-        ranges, is_robot = self.worlds.proximity()
-        t2 = clock()
-        command = self.controller.step(ground, ranges, is_robot, self._now())
-        t3 = clock()
-        steps = self._advance(command)
+        t0 = t1 = t2 = t3 = clock()
+        if self.active[0].steps_done % self._control_steps == 0:
+            ground = self.worlds.ground()
+            t1 = clock()
+            ranges, is_robot = self.worlds.proximity()
+            t2 = clock()
+            self._held = self.controller.step(ground, ranges, is_robot, self._now())
+            t3 = clock()
+        steps = self._advance(self._held)
         t4 = clock()
         spent['ground sensors'] += t1 - t0
         spent['IR sensors'] += t2 - t1

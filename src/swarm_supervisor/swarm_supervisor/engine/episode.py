@@ -65,6 +65,10 @@ class Episode:
                                            range(config.episode.population))
         self.steps_total = config.steps()
         self.sample_ns = round(config.metrics.sample_period * 1e9)
+        self.control_steps = config.world.control_steps
+        #: The controllers' latest answer (held between control steps).
+        self.command = Command(np.zeros((config.episode.population, 2)),
+                               np.zeros(config.episode.population, dtype=bool))
         #: Seconds spent in each of :data:`PARTS`, summed over steps; None when not profiled.
         self.profile = dict.fromkeys(PARTS, 0.0) if profile else None
         self.seed = config.episode.seed
@@ -108,14 +112,22 @@ class Episode:
     def step(self) -> Step:
         """Sense, let every controller answer, drive the wheels and advance the world one step.
 
+        With ``world.control_steps`` k > 1 the controllers answer (and the robots sense) only
+        at every k-th step; the wheels and the cleaner hold that answer in between.
         Stepping past :attr:`done` carries on (the caller decides when to stop).
         """
         if self.profile is not None:
             return self._profiled_step()
         world = self.world
-        readings = world.sense()
-        command = self.controllers.step(readings.ground, readings.ranges, readings.is_robot,
-                                        readings.now)
+        if world.steps % self.control_steps == 0:
+            readings = world.sense()
+            self.command = self.controllers.step(readings.ground, readings.ranges,
+                                                 readings.is_robot, readings.now)
+        return self._advance(self.command)
+
+    def _advance(self, command: Command) -> Step:
+        """Drive the wheels with ``command`` and step the world."""
+        world = self.world
         linear, angular = wheels_to_twist(command.wheels, self.config.mona)
         before = world.time_ns
         world.step(linear, angular, command.cleaner)

@@ -149,7 +149,7 @@ def run_batch(configs: Sequence[SwarmConfig], *, snapshot_times: Sequence[float]
         ``real_time_factor`` is the per-episode factor of the batch).
 
     Raises:
-        BatchError: the configs differ in step period or IR beams.
+        BatchError: the configs differ in step or control period or IR beams.
     """
     started = time.perf_counter()
     observers = observers if observers is not None else [()] * len(configs)
