@@ -67,6 +67,8 @@ MODELS = {
         'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05},
     # The controllers answer every third step; the world holds their commands between.
     'control-period': {'world.control_steps': 3, 'mona.ground_noise': 3.0},
+    # The cleaning as a Webots Display blends it, on a raster of its 3.9 mm pixels.
+    'display-cleaning': {'world.cleaning': 'blend', 'world.cell_size': 0.00390625},
 }
 
 

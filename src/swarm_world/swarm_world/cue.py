@@ -8,6 +8,8 @@ corner at the world origin (as in nav_msgs/OccupancyGrid).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -25,23 +27,30 @@ def cell_index(xy: np.ndarray, cell_size: float, cells: int) -> np.ndarray:
     return np.clip(np.floor(xy / cell_size).astype(np.int64), 0, cells - 1)
 
 
+#: How a cleaning tick changes a cell (``world.cleaning``), as the compiled kernel numbers them.
+MONOTONE, LITERAL, BLEND = 0, 1, 2
+
+
 def clean(cue: np.ndarray, cells: np.ndarray, kernel: np.ndarray, *,
-          literal_levels: np.ndarray | None = None) -> None:
+          literal_levels: np.ndarray | None = None, blend: bool = False) -> None:
     """Apply eq. 3 in place for each robot cell (col, row) in ``cells`` [M, 2], in order.
 
     Monotone (default): each cell loses the kernel amount, floored at 0. Literal: each cell
     becomes the robot's mean sensor reading (``literal_levels`` [M]) minus the amount, floored
-    at 0, as the paper writes it (this can raise cells cleaner than the reading).
+    at 0, as the paper writes it (this can raise cells cleaner than the reading). Blend: each
+    cell is blended towards 0 as a Webots Display draws black with opacity amount / 255: in
+    8-bit integers, the opacity truncated to floor(amount) and the value to
+    floor((255 - opacity) x value / 255), so a cell loses a share of what it holds.
     """
     literal = literal_levels is not None
     levels = (np.asarray(literal_levels, dtype=np.float64) if literal
               else np.zeros(len(cells)))
-    _clean_kernel(cue, np.asarray(cells, dtype=np.int64).reshape(-1, 2), kernel, levels,
-                  literal)
+    mode = LITERAL if literal else BLEND if blend else MONOTONE
+    _clean_kernel(cue, np.asarray(cells, dtype=np.int64).reshape(-1, 2), kernel, levels, mode)
 
 
 @numba.njit(cache=True)
-def _clean_kernel(cue, cells, kernel, levels, literal):  # pragma: no cover - jit
+def _clean_kernel(cue, cells, kernel, levels, mode):  # pragma: no cover - jit
     # Cell by cell what numpy's maximum(base - patch, 0.0) does on each robot's window (the
     # same float32 subtraction, and maximum's "a >= b ? a : b"), robot after robot: the same
     # bits, without a dozen array operations per robot.
@@ -52,8 +61,13 @@ def _clean_kernel(cue, cells, kernel, levels, literal):  # pragma: no cover - ji
         level = np.float32(levels[k])
         for r in range(max(row - radius, 0), min(row + radius + 1, rows)):
             for c in range(max(col - radius, 0), min(col + radius + 1, cols)):
-                base = level if literal else cue[r, c]
-                value = base - kernel[r - row + radius, c - col + radius]
+                amount = kernel[r - row + radius, c - col + radius]
+                if mode == BLEND:
+                    opacity = math.floor(amount)
+                    cue[r, c] = math.floor((255 - opacity) * math.floor(cue[r, c]) / 255)
+                    continue
+                base = level if mode == LITERAL else cue[r, c]
+                value = base - amount
                 cue[r, c] = value if value >= 0.0 else 0.0
 
 

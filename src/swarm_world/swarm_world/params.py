@@ -7,7 +7,7 @@ import dataclasses
 from mona_controller.schema import ParameterError, param, validate
 from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
-CLEANING_MODES = ('monotone', 'literal')
+CLEANING_MODES = ('monotone', 'literal', 'blend')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -29,8 +29,10 @@ class WorldParams:
                                    'k-th step and the wheels hold their command in between '
                                    '(the control period is k x step_period)')
     cleaning: str = param('monotone', choices=CLEANING_MODES,
-                          doc="eq. 3 as 'monotone' (each cell loses the amount) or "
-                              "'literal' (cell = mean reading - amount, the paper's text)")
+                          doc="eq. 3 as 'monotone' (each cell loses the amount), "
+                              "'literal' (cell = mean reading - amount, the paper's text) or "
+                              "'blend' (as a Webots Display draws black with opacity "
+                              'amount / 255: 8-bit cells lose floor(amount) x value / 255)')
     cleaning_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
                                    doc='how often a waiting robot cleans its patch')
     cleaning_radius: int = param(4, unit='cells', low=0, high=100,
