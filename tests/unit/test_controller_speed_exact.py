@@ -194,9 +194,15 @@ def test_equal_parameter_sets_share_their_tables():
     params, mona = ControllerParams(), MonaParams()
     parts = [SwarmController(params, mona, range(3)) for _ in range(4)]
     parts.append(SwarmController(dataclasses.replace(params, alpha=3.0), mona, range(2)))
+    # Another IR range: another parameter set, but the tables do not depend on it.
+    parts.append(SwarmController(params, dataclasses.replace(mona, ir_range=0.02), range(1)))
     merged = SwarmController.merge(parts)
-    assert len(merged._table_keys) == 2
-    assert merged._table_set.tolist() == [0] * 12 + [1] * 2
+    assert len(merged.params) == len(merged.mona) == 3
+    assert merged.param_index.tolist() == [0] * 12 + [1] * 2 + [2]
+    assert len(merged._commands) == 2 * len(parts[0]._commands)  # two tables
+    assert merged._command_row.tolist() == (merged._command_row[0]
+                                            + np.array([0] * 12 + [1] * 2 + [0])
+                                            * len(parts[0]._commands)).tolist()
 
 
 def test_every_ground_pair_gives_eq_1_and_eq_2():
