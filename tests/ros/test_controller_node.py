@@ -9,6 +9,7 @@ import pytest
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String
 
@@ -16,6 +17,7 @@ from mona_controller import qos
 from mona_controller.contract import Announcement
 from mona_controller.controller import ControllerParams
 from mona_controller.controller_node import ControllerNode, parse_robots
+from mona_controller.controllers import controller_class
 from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
@@ -229,6 +231,18 @@ def test_each_kind_of_bad_input_is_logged(pair, spin_until):
         driver.executor.spin_once(timeout_sec=0.02)
     assert len(driver.warnings) == 2, driver.warnings
     assert [value[1:] for value in driver.commands()] == [(0.0, 0.0)] * 3
+
+
+def test_the_controller_is_the_kind_the_parameters_name(executor):
+    node = ControllerNode(ROBOT, context=executor.context,
+                          parameter_overrides=[Parameter('controller.kind', value='beeclust')])
+    executor.add_node(node)
+    assert node.params.kind == 'beeclust'
+    assert type(node.controller) is controller_class('beeclust')
+    assert node.controller.robot_ids.tolist() == [ROBOT]
+    with pytest.raises(ParameterError, match="controller.kind = 'neural' is not allowed"):
+        ControllerNode(ROBOT + 1, context=executor.context,
+                       parameter_overrides=[Parameter('controller.kind', value='neural')])
 
 
 def test_robot_ids_and_their_namespace():

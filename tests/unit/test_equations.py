@@ -7,6 +7,7 @@ import pytest
 
 from mona_controller.controller import ControllerParams, gradient_wheels, waiting_time
 from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.reference import Longhand
 from swarm_world.cue import cleaning_kernel, clean
 
 
@@ -42,6 +43,19 @@ def test_eq2_speed_units():
     linear, angular = wheels_to_twist(np.array([[6.0, 6.0], [3.0, 3.0]]), mona)
     assert linear == pytest.approx([0.08, 0.04])
     assert angular == pytest.approx([0.0, 0.0])
+
+
+def test_the_reference_writes_eq1_and_eq2_out_to_the_bit():
+    # Longhand's plain-Python formulas against the vectorised ones (which fill the
+    # controller's tables), for every pair of ground bytes.
+    params, mona = ControllerParams(wait_max=17.0, alpha=1.5, speed=0.1), MonaParams()
+    hand = Longhand(params, mona, robot_id=0, seed=0)
+    pairs = [(left, right) for left in range(256) for right in range(256)]
+    ground = np.array(pairs, dtype=np.uint8)
+    assert np.array([hand.wait(*pair) for pair in pairs]).tobytes() == waiting_time(
+        ground.astype(np.float64).mean(axis=1), params).tobytes()
+    assert np.array([hand.follow(*pair) for pair in pairs]).tobytes() == gradient_wheels(
+        ground, hand.beta, params.alpha, mona.max_wheel_command).tobytes()
 
 
 def test_eq3_kernel_centre_and_corners():

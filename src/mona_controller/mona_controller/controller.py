@@ -1,9 +1,12 @@
-"""The Mona controller: follow the cue gradient, avoid walls, stop and clean on meeting a robot.
+"""The BEECLUST controller: follow the cue gradient, avoid walls, stop and clean on meeting a
+robot (the paper's eq. 1 and eq. 2; docs/model.md, Controller).
 
 Pure and vectorised: one :class:`SwarmController` holds the state of any number of robots, so
 the embedded runner steps the whole swarm at once and a controller node holds just its own
 robot. Each robot draws from its own random generator, seeded from (episode seed, robot id),
-so a robot behaves the same whichever runner hosts it.
+so a robot behaves the same whichever runner hosts it. It is the ``beeclust`` kind of
+:mod:`mona_controller.controllers` (the seam every controller implements);
+:mod:`mona_controller.reference` writes its rules out robot by robot.
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+# Command is also imported from here (its home before the seam, and engine code uses it).
+from mona_controller.controllers import CONTROLLERS, Command, Controller
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError, param, validate
 
@@ -31,8 +36,13 @@ CONTROLLER_STREAM = 1
 
 @dataclasses.dataclass(frozen=True)
 class ControllerParams:
-    """Parameters of the gradient-following BEECLUST controller (method.md)."""
+    """Parameters of the controller: its kind, and the gradient-following BEECLUST
+    controller's (the paper's eq. 1 and eq. 2 and its parameter table; docs/model.md,
+    Controller)."""
 
+    kind: str = param('beeclust', choices=tuple(CONTROLLERS),
+                      doc="the controller (mona_controller.controllers): 'beeclust' follows "
+                          'the gradient (eq. 2) and waits on meeting a robot (eq. 1)')
     speed: float = param(0.08, unit='m/s', low=0.0, high=1.0,
                          doc='forward speed v_r on a clean floor (beta = speed / wheel unit)')
     alpha: float = param(2.0, unit='cue units per wheel unit', low=0.01, high=1e6,
@@ -82,16 +92,16 @@ def gradient_wheels(ground: np.ndarray, beta: float | np.ndarray, alpha: float |
     return np.minimum(np.maximum(wheels, 0.0, out=wheels), max_command, out=wheels)
 
 
-@dataclasses.dataclass
-class Command:
-    """What the controllers answer for one step."""
+def wheel_constants(params: ControllerParams, mona: MonaParams) -> tuple[float, float, float]:
+    """beta (eq. 2's forward command on a clean floor), the wheel command of an in-place turn
+    (turn_speed, within the wheels' top command) and the turn rate it gives (rad/s)."""
+    beta = params.speed / mona.wheel_unit_speed
+    turn_command = min(params.turn_speed / mona.wheel_unit_speed, mona.max_wheel_command)
+    return beta, turn_command, 2 * turn_command * mona.wheel_unit_speed / mona.wheel_separation
 
-    wheels: np.ndarray  #: [N, 2] float64, left and right wheel commands (wheel units)
-    cleaner: np.ndarray  #: [N] bool, the cleaning actuator
 
-
-class SwarmController:
-    """The controllers of the robots ``robot_ids``; readings and sim time in, commands out.
+class SwarmController(Controller):
+    """The BEECLUST controllers of the robots ``robot_ids`` (the ``beeclust`` kind).
 
     Every parameter is also held per robot, so that :meth:`merge` can join the controllers
     of several episodes, with different parameters, into one that steps all their robots at
@@ -107,86 +117,61 @@ class SwarmController:
     themselves (:func:`waiting_time`, :func:`gradient_wheels`), so a lookup is bit for bit
     the formula. ``state`` and ``turn_direction`` are the controller's to change: each
     robot's block of the command table is kept with them.
+
+    ``state`` holds :data:`FOLLOW`, :data:`AVOID`, :data:`WAIT` or :data:`TURN`.
     """
+
+    #: Per-robot state (the rest follows from the parameters: :meth:`derive`).
+    PER_ROBOT = (*Controller.PER_ROBOT, 'until', 'turn_direction', '_command_block', 'rngs')
 
     def __init__(self, params: ControllerParams, mona: MonaParams,
                  robot_ids: Sequence[int]) -> None:
-        self.params = params
-        self.mona = mona
-        self.robot_ids = np.asarray(robot_ids, dtype=np.int64)
-        self.beta = params.speed / mona.wheel_unit_speed
-        if self.beta > mona.max_wheel_command:
+        """The robots ``robot_ids``, reset with seed 0.
+
+        Raises:
+            ParameterError: the speed needs a wheel command beyond ``mona.max_wheel_command``.
+        """
+        beta, _, _ = wheel_constants(params, mona)
+        if beta > mona.max_wheel_command:
             top = mona.max_wheel_command * mona.wheel_unit_speed
             raise ParameterError(f'controller.speed = {params.speed} is out of range: allowed '
                                  f'[0, {top:g}] m/s (beta = speed / wheel unit <= '
                                  f'{mona.max_wheel_command:g})')
-        self.turn_command = min(params.turn_speed / mona.wheel_unit_speed,
-                                mona.max_wheel_command)
-        # In-place turn rate when both wheels run at +-turn_command.
-        self.turn_rate = 2 * self.turn_command * mona.wheel_unit_speed / mona.wheel_separation
-        self.bearings = mona.ir_bearings()
+        super().__init__(params, mona, robot_ids)
         n = len(self.robot_ids)
-        self.state = np.full(n, FOLLOW, dtype=np.int8)
         self.until = np.zeros(n)  # end time (s) of the current wait or turn
         self.turn_direction = np.ones(n)  # +1 counter-clockwise, -1 clockwise
-        self.encounters = np.zeros(n, dtype=np.int64)
         # Each robot's block of its command table (_FOLLOWING, ...), kept with its state and
         # turn direction: a step reads it instead of working it out from them.
         self._command_block = np.zeros(n, dtype=np.intp)
-        # Per robot (_PER_ROBOT, lists: read one robot at a time): turn_min, turn_max and
-        # turn_rate; IR bearings; whether it turns blind at a wall.
-        self._turn = [(params.turn_min, params.turn_max, self.turn_rate)] * n
-        self._bearings = [tuple(self.bearings.tolist())] * n
-        self._random_turn = [params.avoid == 'random-turn'] * n
-        self._beams = np.ones(len(self.bearings), dtype=bool)
-        # The parameter sets of the tables, and each robot's (all the same one here).
-        self._table_keys = [(params, mona.max_wheel_command, self.beta, self.turn_command)]
-        self._table_set = np.zeros(n, dtype=np.intp)
-        self._use_tables()
         self.rngs: list[np.random.Generator] = []
         self.reset(0)
 
-    def _use_tables(self) -> None:
-        """Join the tables of ``_table_keys``; each robot's first rows in them."""
-        tables = [_tables(*key) for key in self._table_keys]
+    def derive(self) -> None:
+        """Each robot's constants, as lists read one robot at a time (turn_min, turn_max and
+        turn rate; IR bearings; whether it turns blind at a wall), and the lookup tables of
+        the parameter sets with each robot's first rows in them."""
+        index = self.param_index.tolist()
+        sets = list(zip(self.params, self.mona))
+        constants = [wheel_constants(params, mona) for params, mona in sets]
+        turns = [(params.turn_min, params.turn_max, turn_rate)
+                 for params, (_, _, turn_rate) in zip(self.params, constants)]
+        bearings = [tuple(mona.ir_bearings().tolist()) for mona in self.mona]
+        self._turn = [turns[k] for k in index]
+        self._bearings = [bearings[k] for k in index]
+        self._random_turn = [self.params[k].avoid == 'random-turn' for k in index]
+        self._beams = np.ones(self.mona[0].ir_count, dtype=bool)
+        # Sets whose Monas differ only where the tables do not look (e.g. the IR range)
+        # share one table: a batch gathers from fewer, smaller arrays.
+        keys = [(params, mona.max_wheel_command, beta, turn_command)
+                for (params, mona), (beta, turn_command, _) in zip(sets, constants)]
+        unique = list(dict.fromkeys(keys))
+        tables = [_tables(*key) for key in unique]
         self._waits = np.concatenate([waits for waits, _ in tables])
         self._commands = np.concatenate([commands for _, commands in tables])
-        self._wait_row = (self._table_set * _VALUES).tolist()
-        self._command_row = self._table_set * _COMMANDS + _ZERO_DIFFERENCE
-
-    @classmethod
-    def merge(cls, controllers: Sequence[SwarmController]) -> SwarmController:
-        """One controller stepping the robots of all ``controllers``, in order.
-
-        The parts take over: their generators are shared, and their state arrays become
-        views of the merged ones, so each part still shows its robots' state, and a part can
-        be merged again (into another batch) once this one is no longer stepped. Its
-        :meth:`step` takes ``now`` per robot (each part's own time).
-        """
-        merged = cls.__new__(cls)
-        merged.params = None  # per robot: no single set of parameters
-        merged.mona = None
-        merged.robot_ids = np.concatenate([c.robot_ids for c in controllers])
-        merged.rngs = [rng for c in controllers for rng in c.rngs]
-        for name in _PER_ROBOT:
-            setattr(merged, name, [value for c in controllers for value in getattr(c, name)])
-        merged._beams = controllers[0]._beams
-        # Parts with the same parameters share their tables (one set in a uniform batch).
-        keys = list(dict.fromkeys(key for c in controllers for key in c._table_keys))
-        merged._table_keys = keys
-        merged._table_set = np.concatenate([
-            np.array([keys.index(key) for key in c._table_keys], dtype=np.intp)[c._table_set]
-            for c in controllers])
-        merged._use_tables()
-        for name in ('state', 'until', 'turn_direction', 'encounters', '_command_block'):
-            joined = np.concatenate([getattr(c, name) for c in controllers])
-            setattr(merged, name, joined)
-            start = 0
-            for part in controllers:  # the parts see (and keep) their slice of the whole
-                stop = start + len(part.robot_ids)
-                setattr(part, name, joined[start:stop])
-                start = stop
-        return merged
+        table = np.array([unique.index(key) for key in keys], dtype=np.intp)[self.param_index]
+        self._wait_row = (table * _VALUES).tolist()
+        self._command_row = table * _COMMANDS + _ZERO_DIFFERENCE
 
     def reset(self, seed: int) -> None:
         """Start a new episode: every robot following the gradient, generators reseeded."""
@@ -207,6 +192,10 @@ class SwarmController:
             ranges: [N, K] IR ranges from the body edge (m); inf where nothing is seen.
             is_robot: [N, K] True where the obstacle seen is a robot.
             now: sim time of the readings (s); or [N], each robot's (a merged controller).
+
+        Returns:
+            Each robot's wheels (eq. 2, stopped, or turning in place) and cleaner (on while
+            it waits).
         """
         seen = ranges < np.inf
         robot_beams = seen & is_robot
@@ -277,9 +266,6 @@ class SwarmController:
             self.turn_direction[i], self._command_block[i] = 1.0, _COUNTER_CLOCKWISE
         self.state[i] = AVOID
 
-
-#: Per-robot lists of SwarmController, joined by SwarmController.merge.
-_PER_ROBOT = ('_turn', '_bearings', '_random_turn')
 
 #: What a robot does in a step (SwarmController._act).
 _NOTHING, _FOLLOW, _MEET, _TURN, _AVOID = range(5)

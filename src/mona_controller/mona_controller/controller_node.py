@@ -2,7 +2,8 @@
 
 A thin adapter: :mod:`~mona_controller.messages` converts the messages,
 :class:`~mona_controller.pairing.ReadingPairs` pairs the readings by stamp and answers repeats,
-a :class:`~mona_controller.controller.SwarmController` of one robot computes new answers at
+the controller of one robot, of the kind ``controller.kind`` names (built by
+:func:`~mona_controller.controllers.make_controller`), computes new answers at
 ``now = (stamp_ns - start_ns) / 1e9``, as the embedded runner does. Each ``/episode`` resets
 it from ``(seed, robot_id)``. ``--robots 0-9`` hosts several robots' nodes in one process.
 """
@@ -28,7 +29,8 @@ from std_msgs.msg import Bool, String
 
 from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
-from mona_controller.controller import ControllerParams, SwarmController
+from mona_controller.controller import ControllerParams
+from mona_controller.controllers import Controller, make_controller
 from mona_controller.messages import (ReadingError, fill_twist, ground_from_image,
                                       proximity_from_scan, stamp_to_ns)
 from mona_controller.mona import MonaParams, wheels_to_twist
@@ -90,7 +92,7 @@ class ControllerNode(Node):
         self.robot_id = robot_id_of(self.get_namespace(), options.robot_id)
         self.mona = declare_section(self, MonaParams, 'mona.')
         self.params = declare_section(self, ControllerParams, 'controller.')
-        self.controller = SwarmController(self.params, self.mona, [self.robot_id])
+        self.controller: Controller = make_controller(self.params, self.mona, [self.robot_id])
 
         self.finished = Future()  #: done when the supervisor announces the shutdown
         self.episode: Announcement | None = None  #: the current episode, None before the first

@@ -11,7 +11,8 @@ import numpy as np
 
 from mona_controller.schema import ParameterError, param, validate
 
-#: One wheel command unit in m/s: beta = 6 drives at 8.0 cm/s (method.md).
+#: One wheel command unit in m/s: beta = 6 drives at 8.0 cm/s (the paper; docs/model.md,
+#: Controller).
 WHEEL_UNIT_SPEED = 0.04 / 3.0
 
 

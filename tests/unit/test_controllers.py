@@ -1,0 +1,148 @@
+"""The controller seam: the registry, and merge, for every registered controller kind.
+
+A new kind in CONTROLLERS gets these tests for free: it is built from its parameters, a
+merged controller has every attribute a lone one has, and stepping the merged controller
+equals stepping each part alone (parts with different parameters and clocks).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mona_controller.controller import ControllerParams, SwarmController
+from mona_controller.controllers import (CONTROLLERS, Controller, controller_class,
+                                         make_controller)
+from mona_controller.mona import MonaParams
+from mona_controller.reference import random_readings
+from mona_controller.schema import ParameterError
+
+KINDS = sorted(CONTROLLERS)
+K = MonaParams().ir_count
+
+#: The parts of a merged controller: parameters (of each kind), Mona, robots.
+PARTS = [
+    (ControllerParams(), MonaParams(), 3),
+    (ControllerParams(wait_max=1.0, avoid='random-turn'), MonaParams(), 2),
+    (ControllerParams(speed=0.04, alpha=3.0, wait_max=2.0, turn_min=0.5, turn_max=1.0),
+     MonaParams(ir_span=2.0), 4),
+    (ControllerParams(wait_max=0.5, wait_half_constant=900.0, turn_speed=0.1),
+     MonaParams(ir_span=3.0, max_wheel_command=7.0), 1),
+    (ControllerParams(speed=0.1, alpha=0.5, wait_max=3.0), MonaParams(ir_span=1.234), 5),
+]
+COUNTS = [n for _, _, n in PARTS]
+BOUNDS = np.cumsum([0, *COUNTS])
+
+
+def make_parts(kind, seed=0):
+    parts = []
+    for k, (params, mona, n) in enumerate(PARTS):
+        part = make_controller(dataclasses.replace(params, kind=kind), mona,
+                               range(BOUNDS[k], BOUNDS[k] + n))
+        part.reset(seed)
+        parts.append(part)
+    return parts
+
+
+def snapshot(value):
+    """A per-robot attribute as comparable values (generators by their state)."""
+    if isinstance(value, np.ndarray):
+        return value.tobytes(), value.dtype
+    return [item.bit_generator.state if isinstance(item, np.random.Generator) else item
+            for item in value]
+
+
+def test_the_default_kind_is_beeclust_and_an_unknown_one_is_refused():
+    assert ControllerParams().kind == 'beeclust'
+    assert controller_class('beeclust') is SwarmController
+    assert type(make_controller(ControllerParams(), MonaParams(), [4])) is SwarmController
+    with pytest.raises(ParameterError, match="controller.kind = 'neural' is not allowed: "
+                                             "one of 'beeclust'"):
+        ControllerParams(kind='neural')
+
+
+@pytest.mark.parametrize('kind', KINDS)
+def test_the_registry_builds_each_kind_from_its_parameters(kind):
+    cls = controller_class(kind)
+    assert issubclass(cls, Controller)
+    controller = make_controller(ControllerParams(kind=kind), MonaParams(), [7, 2, 5])
+    assert type(controller) is cls
+    assert controller.robot_ids.tolist() == [7, 2, 5]
+    assert controller.state.dtype == np.int8 and controller.encounters.dtype == np.int64
+    assert controller.params == (ControllerParams(kind=kind),)
+    assert controller.mona == (MonaParams(),) and controller.param_index.tolist() == [0] * 3
+    command = controller.step(np.zeros((3, 2), dtype=np.uint8),
+                              np.full((3, K), np.inf, dtype=np.float32),
+                              np.zeros((3, K), dtype=bool), 0.0)
+    assert command.wheels.shape == (3, 2) and command.wheels.dtype == np.float64
+    assert command.cleaner.shape == (3,) and command.cleaner.dtype == bool
+
+
+@pytest.mark.parametrize('kind', KINDS)
+def test_a_merged_controller_has_every_attribute_of_a_lone_one(kind):
+    parts = make_parts(kind)
+    lone = dict(vars(parts[0]))
+    merged = controller_class(kind).merge(parts)
+    assert vars(merged).keys() == lone.keys()
+    for name, value in lone.items():
+        got = getattr(merged, name)
+        assert type(got) is type(value), name
+        if isinstance(value, np.ndarray):
+            assert got.dtype == value.dtype and got.ndim == value.ndim, name
+        elif isinstance(value, (list, tuple)) and value:
+            assert {type(item) for item in got} == {type(value[0])}, name
+    for name in merged.PER_ROBOT:
+        assert len(getattr(merged, name)) == sum(COUNTS), name
+    # The parameter sets, each once, and each robot's index into them.
+    assert merged.params == tuple(dataclasses.replace(p, kind=kind) for p, _, _ in PARTS)
+    assert merged.mona == tuple(mona for _, mona, _ in PARTS)
+    assert merged.param_index.tolist() == np.repeat(range(len(PARTS)), COUNTS).tolist()
+
+
+@pytest.mark.parametrize('kind', KINDS)
+@pytest.mark.parametrize('seed', [2, 5])
+def test_merging_then_stepping_equals_stepping_each_part_alone(kind, seed):
+    rng = np.random.default_rng(seed)
+    alone = make_parts(kind, seed)
+    joined = make_parts(kind, seed)
+    merged = controller_class(kind).merge(joined)
+    starts = rng.uniform(0.0, 100.0, len(PARTS)).round(2)  # each part its own clock
+    for step in range(400):
+        ground, ranges, is_robot = random_readings(rng, sum(COUNTS), K)
+        now = np.repeat(starts + step * 0.25, COUNTS)
+        command = merged.step(ground, ranges, is_robot, now)
+        for k, (part, view) in enumerate(zip(alone, joined)):
+            rows = slice(BOUNDS[k], BOUNDS[k + 1])
+            own = part.step(ground[rows], ranges[rows], is_robot[rows], float(now[rows][0]))
+            assert own.wheels.tobytes() == command.wheels[rows].tobytes(), (step, k)
+            assert own.cleaner.tobytes() == command.cleaner[rows].tobytes(), (step, k)
+            for name in merged.PER_ROBOT:
+                expected = snapshot(getattr(part, name))
+                assert snapshot(getattr(merged, name)[rows]) == expected, (step, k, name)
+                assert snapshot(getattr(view, name)) == expected, (step, k, name)
+
+
+class Forgetful(SwarmController):
+    """BEECLUST with one more per-robot array that PER_ROBOT does not name."""
+
+    def __init__(self, params, mona, robot_ids):
+        super().__init__(params, mona, robot_ids)
+        self.last_seen = np.zeros(len(self.robot_ids))
+
+
+class Declared(Forgetful):
+    PER_ROBOT = (*SwarmController.PER_ROBOT, 'last_seen')
+
+
+def test_a_per_robot_attribute_left_out_of_the_list_is_refused():
+    params, mona = ControllerParams(), MonaParams()
+    with pytest.raises(TypeError, match='would lose last_seen'):
+        Forgetful.merge([Forgetful(params, mona, range(2)), Forgetful(params, mona, range(3))])
+    parts = [Declared(params, mona, range(2)), Declared(params, mona, range(3))]
+    parts[1].last_seen[:] = 4.0
+    merged = Declared.merge(parts)
+    assert merged.last_seen.tolist() == [0.0, 0.0, 4.0, 4.0, 4.0]
+    with pytest.raises(TypeError, match='one kind'):
+        SwarmController.merge([SwarmController(params, mona, range(2)), parts[0]])
+    with pytest.raises(ValueError, match='at least one'):
+        SwarmController.merge([])
