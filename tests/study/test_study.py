@@ -136,6 +136,20 @@ def test_changed_parameters_do_not_mix_with_finished_episodes(finished, tmp_path
     assert (out / 'parameters.yaml').read_text() == saved
 
 
+def test_an_episode_recorded_before_a_parameter_existed_is_kept(finished, tmp_path):
+    """A record without a parameter added to the schema since ran its default: kept."""
+    out = tmp_path / 'out'
+    shutil.copytree(finished, out)
+    for record_path in (out / study.EPISODES_DIR).glob(f'*/{outputs.EPISODE_FILE}'):
+        record = json.loads(record_path.read_text())
+        del record['parameters']['controller']['kind']  # as written before controller.kind
+        record_path.write_text(json.dumps(record))
+    before = episode_stamps(out)
+    assert main(['study', '--out', str(out), '--config', str(finished / 'parameters.yaml')]) \
+        == 0
+    assert episode_stamps(out) == before  # nothing ran again
+
+
 def test_from_episodes_analyses_folders_without_snapshots(finished, tmp_path):
     source = tmp_path / 'bags'
     for folder in (finished / study.EPISODES_DIR).iterdir():

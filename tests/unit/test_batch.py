@@ -99,6 +99,6 @@ def test_episodes_that_step_differently_are_refused():
     with pytest.raises(BatchError, match='step and control periods'):
         Batch([Episode(base.replace(episode={'population': 3})),
                Episode(base.replace(episode={'population': 3}, world={'step_period': 0.05}))])
-    with pytest.raises(BatchError, match=r'\(32000000, 1, 5\), \(32000000, 2, 5\)'):
+    with pytest.raises(BatchError, match=r"\(32000000, 1, 5, 'beeclust'\), \(32000000, 2, 5"):
         Batch([Episode(base.replace(episode={'population': 3})),
                Episode(base.replace(episode={'population': 3}, world={'control_steps': 2}))])

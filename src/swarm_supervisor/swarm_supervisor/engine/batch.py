@@ -4,16 +4,17 @@ A step of one episode pays a fixed Python overhead for a few microseconds of mod
 robot. :class:`Batch` pays it once for all its episodes: their worlds are stepped as one
 :class:`~swarm_world.world.WorldBatch` (every robot's sensors and wheel forces in one compiled
 call each; each world keeps its own pymunk space, cue and noise streams and is advanced by
-the same parts as ``World.step``), and one :class:`SwarmController` (merged from the
-episodes' own, :meth:`SwarmController.merge`) steps all robots with per-robot parameters and
-each robot's own random generator.
+the same parts as ``World.step``), and one controller (merged from the episodes' own,
+:meth:`~mona_controller.controllers.Controller.merge`) steps all robots with per-robot
+parameters and each robot's own random generator.
 
 Exactness: every number an episode computes is computed from its own inputs by the same
 operations as alone (element-wise arithmetic, the same compiled kernels on its own rows, the
 same per-robot generators), so an episode's outputs are byte-identical to a lone run's for
 any batch composition and order (tests/unit/test_batch.py). The episodes must share the step
-and control periods (they step together) and the number of IR beams (their readings are one
-array); any other parameter may differ. An episode that is done leaves the batch; the rest go on.
+and control periods (they step together), the number of IR beams (their readings are one
+array) and the controller kind (one controller steps them); any other parameter may
+differ. An episode that is done leaves the batch; the rest go on.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mona_controller.controller import Command, SwarmController
+from mona_controller.controllers import Command
 from mona_controller.mona import wheels_to_twist
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import PARTS, Episode, Step
@@ -36,10 +37,11 @@ class BatchError(ValueError):
     """The episodes cannot be stepped together (other step or control periods, IR rings)."""
 
 
-def batch_key(config: SwarmConfig) -> tuple[int, int, int]:
+def batch_key(config: SwarmConfig) -> tuple[int, int, int, str]:
     """What episodes stepped together must share: the step period (ns), the control period
-    (steps) and the IR beams."""
-    return config.world.step_ns, config.world.control_steps, config.mona.ir_count
+    (steps), the IR beams and the controller kind (one merged controller steps them)."""
+    return (config.world.step_ns, config.world.control_steps, config.mona.ir_count,
+            config.controller.kind)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,9 +73,9 @@ class Batch:
         self.members = list(episodes)
         keys = {batch_key(member.config) for member in self.members}
         if len(keys) > 1:
-            raise BatchError('episodes stepped together must share the step and control periods '
-                             'and the number of IR beams; got (step ns, control steps, '
-                             f'beams) {sorted(keys)}')
+            raise BatchError('episodes stepped together must share the step and control periods, '
+                             'the number of IR beams and the controller kind; got (step ns, '
+                             f'control steps, beams, kind) {sorted(keys)}')
         #: Seconds spent in each of PARTS, summed over steps; None when not profiled.
         self.profile = dict.fromkeys(PARTS, 0.0) if profile else None
         self.active: list[Episode] = []
@@ -101,7 +103,8 @@ class Batch:
         self._twist = _Twist(
             np.repeat([mona.wheel_unit_speed for mona in monas], self._counts),
             np.repeat([mona.wheel_separation for mona in monas], self._counts))
-        self.controller = SwarmController.merge([member.controllers for member in self.active])
+        parts = [member.controllers for member in self.active]
+        self.controller = type(parts[0]).merge(parts)
         self._control_steps = self.active[0].control_steps
         # The answer the wheels hold between control steps: each running member's latest.
         self._held = Command(np.concatenate([member.command.wheels for member in self.active]),

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from mona_controller.controller import Command, SwarmController
+from mona_controller.controllers import Command, make_controller
 from mona_controller.mona import wheels_to_twist
 from swarm_metrics.metrics import sample_field
 from swarm_supervisor.config import SwarmConfig
@@ -61,7 +61,7 @@ class Episode:
         """
         self.config = config
         self.world = World(config.world, config.mona)
-        self.controllers = SwarmController(config.controller, config.mona,
+        self.controllers = make_controller(config.controller, config.mona,
                                            range(config.episode.population))
         self.steps_total = config.steps()
         self.sample_ns = round(config.metrics.sample_period * 1e9)

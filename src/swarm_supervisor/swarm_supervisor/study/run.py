@@ -40,15 +40,18 @@ def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
 
 
 def _check_kept(folder: Path, config: SwarmConfig) -> None:
-    """Refuse to mix a finished episode run with other parameters into this study."""
+    """Refuse to mix a finished episode run with other parameters into this study. A
+    parameter the episode's record lacks (one added to the schema since) counts as its
+    default: that is what the episode ran."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
     stored = record.get('parameters', {})
     expected = _expected_parameters(config)
+    defaults = _expected_parameters(SwarmConfig())
     for section, values in expected.items():
         if section == 'study':  # the design around the episode does not change it
             continue
         for key, value in values.items():
-            if stored.get(section, {}).get(key) != value:
+            if stored.get(section, {}).get(key, defaults[section][key]) != value:
                 raise StudyError(
                     f'{folder} was run with {section}.{key} = '
                     f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}; '

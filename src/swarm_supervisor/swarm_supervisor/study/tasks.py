@@ -107,7 +107,7 @@ def make_batches(pending: Sequence[EpisodeTask], batch_size: int,
     Within a group, episodes are dealt out in turn, costliest first, so the batches of a
     group cost about the same and the workers finish together.
     """
-    groups: dict[tuple[int, int, int], list[EpisodeTask]] = {}
+    groups: dict[tuple, list[EpisodeTask]] = {}
     for task in pending:
         groups.setdefault(batch_key(task.config), []).append(task)
     batches: list[tuple[EpisodeTask, ...]] = []
