@@ -34,6 +34,10 @@ PARTS = [
     (ControllerParams(wait_max=0.5, wait_half_constant=900.0, turn_speed=0.1),
      MonaParams(ir_span=3.0, max_wheel_command=7.0), 1),
     (ControllerParams(speed=0.1, alpha=0.5, wait_max=3.0), MonaParams(ir_span=1.234), 5),
+    # Turning in place at the robot's own speed, and at the wheels' top command.
+    (ControllerParams(speed=0.06, wait_max=2.0, turn_at='speed'), MonaParams(), 3),
+    (ControllerParams(wait_max=2.0, avoid='random-turn', turn_at='full'),
+     MonaParams(max_wheel_command=8.0), 2),
 ]
 
 
@@ -136,3 +140,22 @@ def test_walls_on_both_sides_turn_away_from_the_larger_bearings():
         # right (bearings < 0) or balanced: counter-clockwise; left: clockwise
         assert direction == (-1.0 if side > 0 and not math.isclose(side, 0.0,
                                                                    abs_tol=1e-12) else 1.0)
+
+
+@pytest.mark.parametrize('turn_at, wheel_speed', [('turn_speed', 0.04), ('speed', 0.06),
+                                                  ('full', 8.0 * 0.04 / 3.0)])
+def test_a_turn_lasts_its_angle_over_the_rate_its_wheels_give(turn_at, wheel_speed):
+    mona = MonaParams(max_wheel_command=8.0)
+    controller = SwarmController(ControllerParams(speed=0.06, wait_max=0.0, turn_at=turn_at),
+                                 mona, [0])
+    ground = np.zeros((1, 2), dtype=np.uint8)
+    near = np.full((1, K), np.inf, dtype=np.float32)
+    near[0, 2] = 0.01
+    controller.step(ground, near, np.ones((1, K), dtype=bool), 0.0)  # meets: a 0 s wait
+    command = controller.step(ground, np.full((1, K), np.inf, dtype=np.float32),
+                              np.zeros((1, K), dtype=bool), 0.0)  # the wait is over: turn
+    assert controller.state[0] == TURN
+    spin = abs(command.wheels[0, 1]) * mona.wheel_unit_speed
+    assert spin == pytest.approx(wheel_speed)
+    angle = controller.until[0] * 2 * spin / mona.wheel_separation
+    assert np.pi / 2 <= angle <= np.pi

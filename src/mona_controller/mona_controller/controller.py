@@ -29,6 +29,9 @@ STATE_NAMES = ('follow', 'avoid', 'wait', 'turn')
 
 #: What a robot does at a wall (docs/model.md).
 AVOID_MODES = ('turn-away', 'random-turn')
+#: How fast a robot turns in place (after a wait, at a wall): at turn_speed, at its own
+#: speed, or with its wheels at their top command.
+TURN_SPEEDS = ('turn_speed', 'speed', 'full')
 
 #: The stream id of controller random generators (placement uses another).
 CONTROLLER_STREAM = 1
@@ -57,6 +60,10 @@ class ControllerParams:
                             doc='largest turn after a wait (180 deg)')
     turn_speed: float = param(0.04, unit='m/s', low=0.001, high=1.0,
                               doc='wheel speed while turning in place (walls, after a wait)')
+    turn_at: str = param('turn_speed', choices=TURN_SPEEDS,
+                         doc="the wheels' speed in an in-place turn: 'turn_speed'; 'speed' the "
+                             "robot's own (controller.speed); 'full' the top wheel command "
+                             "(as the first author's Webots controller turned)")
     avoid: str = param('turn-away', choices=AVOID_MODES,
                        doc="at a wall: 'turn-away' turns in place away from it until no beam "
                            "sees it; 'random-turn' turns by U[turn_min, turn_max] in a random "
@@ -67,6 +74,9 @@ class ControllerParams:
         if self.turn_min > self.turn_max:
             raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
                                  f'controller.turn_max = {self.turn_max}')
+        if self.turn_at == 'speed' and self.speed == 0:
+            raise ParameterError("controller.turn_at = 'speed' needs controller.speed > 0 (a "
+                                 'robot of speed 0 would never finish a turn)')
 
 
 def waiting_time(cue: np.ndarray | float, params: ControllerParams) -> np.ndarray | float:
@@ -94,9 +104,14 @@ def gradient_wheels(ground: np.ndarray, beta: float | np.ndarray, alpha: float |
 
 def wheel_constants(params: ControllerParams, mona: MonaParams) -> tuple[float, float, float]:
     """beta (eq. 2's forward command on a clean floor), the wheel command of an in-place turn
-    (turn_speed, within the wheels' top command) and the turn rate it gives (rad/s)."""
+    (``turn_at``: turn_speed or the robot's speed, within the wheels' top command, or the top
+    command) and the turn rate it gives (rad/s)."""
     beta = params.speed / mona.wheel_unit_speed
-    turn_command = min(params.turn_speed / mona.wheel_unit_speed, mona.max_wheel_command)
+    if params.turn_at == 'full':
+        turn_command = mona.max_wheel_command
+    else:
+        speed = params.turn_speed if params.turn_at == 'turn_speed' else params.speed
+        turn_command = min(speed / mona.wheel_unit_speed, mona.max_wheel_command)
     return beta, turn_command, 2 * turn_command * mona.wheel_unit_speed / mona.wheel_separation
 
 

@@ -39,8 +39,10 @@ class Longhand:
                  seed: int) -> None:
         self.params, self.mona = params, mona
         self.beta = params.speed / mona.wheel_unit_speed
-        self.turn_command = min(params.turn_speed / mona.wheel_unit_speed,
-                                mona.max_wheel_command)
+        # An in-place turn's wheel command: turn_speed, the robot's own speed, or full.
+        turning = {'turn_speed': params.turn_speed, 'speed': params.speed,
+                   'full': math.inf}[params.turn_at]
+        self.turn_command = min(turning / mona.wheel_unit_speed, mona.max_wheel_command)
         # Both wheels at +-turn_command turn the robot in place at this rate (rad/s).
         self.turn_rate = 2 * self.turn_command * mona.wheel_unit_speed / mona.wheel_separation
         self.bearings = mona.ir_bearings().tolist()
