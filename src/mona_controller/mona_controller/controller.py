@@ -43,9 +43,10 @@ class ControllerParams:
     controller's (the paper's eq. 1 and eq. 2 and its parameter table; docs/model.md,
     Controller)."""
 
-    kind: str = param('beeclust', choices=tuple(CONTROLLERS),
-                      doc="the controller (mona_controller.controllers): 'beeclust' follows "
-                          'the gradient (eq. 2) and waits on meeting a robot (eq. 1)')
+    kind: str = param('beeclust',
+                      doc="the controller, a kind of mona_controller.controllers.CONTROLLERS: "
+                          "'beeclust' follows the gradient (eq. 2) and waits on meeting a "
+                          'robot (eq. 1)')
     speed: float = param(0.08, unit='m/s', low=0.0, high=1.0,
                          doc='forward speed v_r on a clean floor (beta = speed / wheel unit)')
     alpha: float = param(2.0, unit='cue units per wheel unit', low=0.01, high=1e6,
@@ -71,6 +72,9 @@ class ControllerParams:
 
     def __post_init__(self) -> None:
         validate(self, 'controller.')
+        if self.kind not in CONTROLLERS:  # the registry may grow at run time: checked here
+            raise ParameterError(f'controller.kind = {self.kind!r} is not allowed: one of '
+                                 + ', '.join(repr(kind) for kind in CONTROLLERS))
         if self.turn_min > self.turn_max:
             raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
                                  f'controller.turn_max = {self.turn_max}')

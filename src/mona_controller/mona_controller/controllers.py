@@ -18,6 +18,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 import importlib
+import importlib.metadata
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, ClassVar, Self
 
@@ -29,10 +30,33 @@ if TYPE_CHECKING:
 
 #: Every controller kind, by the name ``controller.kind`` takes: ``'module:Class'``, imported
 #: on first use, so that the parameter schema can list the kinds without importing their
-#: modules (which import the schema). Adding a controller is adding one line here.
+#: modules (which import the schema). Adding a controller is adding one line here, or
+#: :func:`register_controller`, or an entry point of :data:`ENTRY_POINTS` in one's own package.
 CONTROLLERS: dict[str, str] = {
     'beeclust': 'mona_controller.controller:SwarmController',
 }
+#: The entry-point group through which an installed package adds controller kinds
+#: (``name = 'module:Class'``): every process (a study's workers, every node) sees them.
+ENTRY_POINTS = 'mona_swarm.controllers'
+
+
+def register_controller(kind: str, target: str) -> None:
+    """Add a controller kind, ``target`` being ``'module:Class'`` (for this process and those
+    it forks; a spawned worker or a node sees it only through :data:`ENTRY_POINTS`).
+
+    Raises:
+        ValueError: the kind is taken by another class, or ``target`` is not 'module:Class'.
+    """
+    module, colon, name = target.partition(':')
+    if not (module and colon and name.isidentifier()):
+        raise ValueError(f"controller {kind!r}: {target!r} is not 'module:Class'")
+    if CONTROLLERS.get(kind, target) != target:
+        raise ValueError(f'controller kind {kind!r} is already {CONTROLLERS[kind]}')
+    CONTROLLERS[kind] = target
+
+
+for _point in importlib.metadata.entry_points(group=ENTRY_POINTS):
+    CONTROLLERS.setdefault(_point.name, _point.value)
 
 
 @dataclasses.dataclass
@@ -191,7 +215,7 @@ def controller_class(kind: str) -> type[Controller]:
     """The class registered as ``kind`` in :data:`CONTROLLERS` (imported on first use).
 
     Raises:
-        KeyError: no such kind (``ControllerParams`` already refuses one).
+        KeyError: no such kind (``ControllerParams`` refuses one when it is built).
     """
     module, _, name = CONTROLLERS[kind].partition(':')
     return getattr(importlib.import_module(module), name)

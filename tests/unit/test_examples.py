@@ -1,0 +1,58 @@
+"""The runnable recipes of docs/extending.md (examples/) work as the page says."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from swarm_supervisor.cli import command, main
+from swarm_supervisor.config import load_config
+from swarm_supervisor.engine import run_batch, run_episode
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))  # the examples are imported as the package `examples`
+
+from examples import solitary_cleaner  # noqa: E402
+
+
+def test_a_controller_of_ones_own_runs_alone_and_in_a_batch():
+    solitary_cleaner.register()
+    base = load_config().replace(episode={'population': 20, 'duration': 60.0, 'seed': 3},
+                                 controller={'kind': 'solitary'})
+    alone = run_episode(base)
+    assert alone.metrics[-1]['mean_cue_fraction'] < 1.0  # it cleans
+    beeclust = run_episode(base.replace(controller={'kind': 'beeclust'}))
+    assert not np.array_equal(alone.final_poses, beeclust.final_poses)
+    # Merged with other episodes of its kind it computes what it computes alone.
+    other = base.replace(episode={'population': 7, 'seed': 8}, controller={'alpha': 5.0})
+    batched = run_batch([base, other])
+    assert batched[0].metrics == alone.metrics
+    assert np.array_equal(batched[0].final_poses, alone.final_poses)
+
+
+def test_an_unknown_kind_is_refused_naming_the_known_ones():
+    with pytest.raises(Exception, match="controller.kind = 'nope' is not allowed: one of "
+                                        "'beeclust'"):
+        load_config().replace(controller={'kind': 'nope'})
+
+
+def test_the_controller_example_runs_as_a_script():
+    done = subprocess.run([sys.executable, str(ROOT / 'examples' / 'solitary_cleaner.py')],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert 'beeclust:' in done.stdout and 'solitary:' in done.stdout
+
+
+def test_a_subcommand_of_ones_own(tmp_path, capsys, monkeypatch):
+    out = tmp_path / 'run'
+    assert main(['run', '--population', '4', '--duration', '5', '--out', str(out)]) == 0
+    monkeypatch.setitem(command.COMMAND_MODULES, 'examples.summary_command', ('summary',))
+    capsys.readouterr()
+    assert main(['summary', str(tmp_path)]) == 0
+    assert 'run: N = 4, 8 cm/s, seed 1:' in capsys.readouterr().out
+    assert main(['summary', str(tmp_path / 'nothing')]) == 2
+    assert 'does not exist' in capsys.readouterr().err
