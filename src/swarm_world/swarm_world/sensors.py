@@ -18,7 +18,8 @@ import numba
 import numpy as np
 
 
-_NO_NOISE = np.zeros((0, 2))
+#: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
+NO_NOISE = np.zeros((0, 2))
 
 
 @numba.njit(cache=True)
@@ -32,8 +33,18 @@ def heading_trig(poses):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _ground_kernel(cue, cell_size, poses, trig, half_separation, noise,
-                   out):  # pragma: no cover - jitted
+def ground_kernel(cue, cell_size, poses, trig, half_separation, noise,
+                  out):  # pragma: no cover - jitted
+    """The compiled core of :func:`ground_readings`, into ``out`` [N, 2] uint8.
+
+    Args:
+        cue: the sensed field (float32 [rows, cols]).
+        cell_size: m per cell.
+        poses: [N, 3] float64; trig: their :func:`heading_trig`.
+        half_separation: half the wheel separation (m): the sensors sit under the wheels.
+        noise: [N, 2] cue units added before rounding, or :data:`NO_NOISE` (zero rows).
+        out: [N, 2] uint8, filled and returned.
+    """
     last = cue.shape[0] - 1
     noisy = noise.shape[0] > 0
     for i in range(poses.shape[0]):
@@ -59,20 +70,31 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
             0..255 (sensor noise; None: none).
     """
     out = np.empty((len(poses), 2), dtype=np.uint8)
-    noise = _NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
+    noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     poses = np.ascontiguousarray(poses, dtype=np.float64)
-    return _ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
+    return ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
                           noise, out)
 
 
 @numba.njit(cache=True)
-def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, noise, noisy,
-                        out):  # pragma: no cover - jitted
+def ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, noise, noisy,
+                       out):  # pragma: no cover - jitted
+    """:func:`ground_kernel` for several arenas in one call (the batched engine).
+
+    Args:
+        fields: a typed list of each arena's sensed field.
+        bounds: [E + 1] int64, arena e holds robots ``bounds[e]:bounds[e + 1]``.
+        cell_size, half_separation: [E] each arena's.
+        poses, trig: [R, 3] and [R, 2] every robot's, arena after arena.
+        noise: [R, 2] cue units (rows of noisy arenas only are read), or :data:`NO_NOISE`.
+        noisy: [E] bool, whether arena e adds its rows of ``noise``.
+        out: [R, 2] uint8, filled and returned.
+    """
     # Each arena's robots [bounds[e], bounds[e + 1]) on its own field, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
-        _ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
+        ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
                        noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
     return out
 

@@ -18,7 +18,7 @@ from swarm_world import noise
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import (_NO_NOISE, _ground_kernel, _ground_many_kernel, heading_trig,
+from swarm_world.sensors import (NO_NOISE, ground_kernel, ground_many_kernel, heading_trig,
                                  proximity, proximity_many)
 from swarm_world.timing import crossed
 
@@ -131,8 +131,8 @@ class World:
     def ground(self, poses: np.ndarray, out: np.ndarray) -> np.ndarray:
         """The ground readings of robots at ``poses`` (this world's robots, now) into ``out``
         [N, 2] uint8, with this step's sensor noise if any."""
-        extra = self.ground_noise() if self.noise.ground else _NO_NOISE
-        return _ground_kernel(self.sensed_field(), self.params.cell_size, poses,
+        extra = self.ground_noise() if self.noise.ground else NO_NOISE
+        return ground_kernel(self.sensed_field(), self.params.cell_size, poses,
                               heading_trig(poses), self.mona.wheel_separation / 2, extra, out)
 
     def ground_noise(self) -> np.ndarray:
@@ -248,12 +248,12 @@ class WorldBatch:
             field = world.sensed_field()
             if field is not self._field_list[e]:  # a new array (footprint, transport)
                 self._field_list[e] = self._fields[e] = field
-        extra = _NO_NOISE
+        extra = NO_NOISE
         if self._noisy_ground:
             extra = np.zeros((int(self.bounds[-1]), 2))
             for world, rows in self._noisy_ground:
                 extra[rows] = world.ground_noise()
-        return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
+        return ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
                                    self.trig(), extra, self._ground_noisy,
                                    np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
 
