@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from mona_controller.schema import ParameterError, param, validate
+from swarm_world.arena import Arena, parse_obstacles
 from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal')
@@ -64,10 +65,16 @@ class WorldParams:
     transport_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
                                     doc='how often diffusion, evaporation and emission update '
                                         'the cue (sim time)')
+    obstacles: tuple = param((), keyed=True,
+                             doc='static obstacles, name -> [disc, x, y, radius], [rect, x0, '
+                                 'y0, x1, y1] or [polygon, x1, y1, x2, y2, x3, y3, ...] (m; '
+                                 'a convex polygon; the kind may be left out: docs/model.md '
+                                 '"Obstacles"); none: the bare square')
 
     def __post_init__(self) -> None:
         validate(self, 'world.')
         self.source_list()  # names, lengths and places checked at start-up
+        self.arena()  # the obstacles too
         if not (self.sources or self.cue_file) and self.cue_diameter > self.arena_side * 1.4143:
             raise ParameterError(f'world.cue_diameter = {self.cue_diameter} exceeds the arena '
                                  f'diagonal ({self.arena_side} m side)')
@@ -130,6 +137,15 @@ class WorldParams:
             result.append(Source(name, x, y, radius, peak, profile[0], emission,
                                  tuple(velocity), path[0], points))
         return result
+
+    def arena(self) -> Arena:
+        """The walled arena and its obstacles (in name order).
+
+        Raises:
+            ParameterError: a bad obstacle (see :func:`swarm_world.arena.parse_obstacles`).
+        """
+        sources = [(source.name, source.x, source.y) for source in self.source_list()]
+        return Arena(self.arena_side, parse_obstacles(self.obstacles, self.arena_side, sources))
 
     @property
     def paper_field(self) -> bool:

@@ -1,0 +1,135 @@
+"""The arena seam: obstacles parsed from world.obstacles, refused with the key named."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mona_controller.schema import ParameterError
+from swarm_supervisor.config import SwarmConfig
+from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
+from swarm_world.params import WorldParams
+
+#: A few of each kind in the paper's arena, none over the paper's source at the centre.
+LAYOUT = {'pillar': ['disc', 0.9, 2.0, 0.15],
+          'wall': ['rect', 1.8, 0.5, 1.9, 1.3],
+          'wedge': ['polygon', 0.4, 0.4, 0.9, 0.5, 0.6, 0.9]}
+
+
+def test_obstacles_are_parsed_in_name_order():
+    arena = WorldParams(obstacles=LAYOUT).arena()
+    assert [obstacle.name for obstacle in arena.obstacles] == ['pillar', 'wall', 'wedge']
+    pillar, wall, wedge = arena.obstacles
+    assert pillar == Disc('pillar', 0.9, 2.0, 0.15)
+    assert wall == Rect.of('wall', 1.8, 0.5, 1.9, 1.3) and wall.kind == 'rect'
+    assert isinstance(wedge, Polygon) and wedge.kind == 'polygon'
+    assert wedge.area == pytest.approx(0.115)  # positive: counter-clockwise
+
+
+def test_no_obstacles_by_default():
+    arena = WorldParams().arena()
+    assert arena == Arena(2.85) and arena.obstacles == ()
+    assert [shape.kind for shape in arena.shapes] == ['walls']
+    packed = arena.packed
+    assert packed.boxes.shape == (0, 4) and packed.bounds.tolist() == [0, 0]
+
+
+def test_the_kind_may_be_left_out_for_ros_parameter_files():
+    # rcl refuses a list that mixes strings and numbers, so a file both runners read
+    # gives the numbers alone: 3 are a disc, 4 a rect, 6 or more a polygon.
+    explicit = WorldParams(obstacles=LAYOUT).arena()
+    bare = WorldParams(obstacles={name: values[1:] for name, values in LAYOUT.items()}).arena()
+    assert bare == explicit
+
+
+def test_a_polygon_given_clockwise_is_turned_counter_clockwise():
+    given = [0.4, 0.4, 0.6, 0.9, 0.9, 0.5]
+    (wedge,) = WorldParams(obstacles={'wedge': ['polygon', *given]}).arena().obstacles
+    assert wedge.vertices == ((0.9, 0.5), (0.6, 0.9), (0.4, 0.4))
+    assert wedge.clearance(0.6, 0.6) < 0 < wedge.clearance(0.3, 0.3)
+
+
+def test_clearance_of_each_kind():
+    disc = Disc('d', 1.0, 1.0, 0.2)
+    assert disc.clearance(1.5, 1.0) == pytest.approx(0.3)
+    assert disc.clearance(1.0, 1.0) == pytest.approx(-0.2)
+    rect = Rect.of('r', 1.0, 1.0, 2.0, 1.5)
+    assert rect.clearance(0.7, 1.2) == pytest.approx(0.3)  # beside an edge
+    assert rect.clearance(2.3, 1.9) == pytest.approx(0.5)  # off a corner: 0.3, 0.4, 0.5
+    assert rect.clearance(1.5, 1.1) == pytest.approx(-0.1)  # inside, 0.1 from an edge
+    walls = Arena(2.0).shapes[0]
+    assert walls.clearance(0.1, 1.0) == pytest.approx(0.1)
+    assert walls.clearance(2.05, 1.0) == pytest.approx(-0.05)
+    assert Arena(2.0, (rect,)).clearance(1.9, 1.7) == pytest.approx(0.1)  # the wall
+
+
+def test_pack_puts_each_arenas_obstacles_in_its_bounds():
+    first = WorldParams(obstacles=LAYOUT).arena()
+    second = Arena(2.85, (Disc('a', 0.5, 0.5, 0.1),))
+    packed = pack([first, Arena(2.85), second])
+    assert packed.bounds.tolist() == [0, 3, 3, 4]
+    assert packed.kinds.tolist() == [0, 1, 1, 0]  # disc, rect, polygon, disc
+    assert packed.first.tolist() == [0, 1, 5, 8, 9]  # 1 row, 4 edges, 3 edges, 1 row
+    assert packed.geometry[0].tolist() == [0.9, 2.0, 0.15, 0.0]
+    assert packed.geometry[1].tolist() == [1.8, 0.5, 1.9, 0.5]  # the rect's bottom edge
+    np.testing.assert_array_equal(packed.boxes[3], [0.4, 0.4, 0.6, 0.6])
+
+
+def test_floor_area_and_cells_under():
+    arena = Arena(1.0, (Rect.of('r', 0.0, 0.0, 0.5, 0.2), Disc('d', 0.7, 0.7, 0.1)))
+    assert arena.floor_area == pytest.approx(1.0 - 0.1 - math.pi * 0.01)
+    under = arena.under(10, 0.1)  # cell centres at 0.05, 0.15, ...
+    assert under[:2, :5].all() and under[6:8, 6:8].all()  # row = y
+    assert under.sum() == 10 + 4  # the rect's 2 x 5 cells, the 4 within 7 cm of (0.7, 0.7)
+
+
+@pytest.mark.parametrize('values, fragment', [
+    (['circle', 1.0, 1.0, 0.1], "world.obstacles.box: unknown kind 'circle' (kinds: disc, "
+                                'rect, polygon)'),
+    (['disc', 1.0, 1.0], "world.obstacles.box = ['disc', 1.0, 1.0]: a disc takes 3 numbers"),
+    (['rect', 1.0, 1.0, 2.0], "world.obstacles.box = ['rect', 1.0, 1.0, 2.0]: a rect takes "
+                              '4 numbers'),
+    (['polygon', 1.0, 1.0, 2.0, 1.0], 'a polygon takes x, y pairs of 3 or more vertices'),
+    (['polygon', 1.0, 1.0, 2.0, 1.0, 2.0], 'a polygon takes x, y pairs'),
+    ([1.0, 1.0, 1.0, 2.0, 2.0], 'world.obstacles.box = [1.0, 1.0, 1.0, 2.0, 2.0]: a polygon'),
+    (['disc', 1.0, 'one', 0.1], "world.obstacles.box = ['disc', 1.0, 'one', 0.1]: "
+                                'expected [kind, numbers...]'),
+    (['disc', 1.0, True, 0.1], 'expected [kind, numbers...]'),
+    (['disc', 1.0, 1.0, 0.0], 'world.obstacles.box: a disc of radius 0.0 m is degenerate'),
+    (['disc', 2.8, 1.0, 0.1], 'world.obstacles.box: the point (2.9, 1.1) is outside the '
+                              '2.85 m arena'),
+    (['rect', 1.0, 1.0, 1.0, 2.0], 'world.obstacles.box: a rect is [x0, y0, x1, y1] with '
+                                   'x0 < x1 and y0 < y1'),
+    (['rect', 2.0, 1.0, 1.0, 2.0], 'x0 < x1 and y0 < y1'),
+    (['rect', -0.1, 1.0, 1.0, 2.0], 'world.obstacles.box: the point (-0.1, 1.0) is outside'),
+    (['polygon', 1.0, 1.0, 3.0, 1.0, 2.0, 2.0], 'the point (3.0, 1.0) is outside the 2.85 m'),
+    (['polygon', 1.0, 1.0, 1.0, 1.0, 2.0, 2.0], 'world.obstacles.box: the polygon repeats the '
+                                                'vertex (1.0, 1.0) (degenerate)'),
+    (['polygon', 1.0, 1.0, 1.5, 1.5, 2.0, 2.0], 'world.obstacles.box: the polygon has three '
+                                                'vertices in a line (degenerate)'),
+    (['polygon', 0.1, 0.1, 1.0, 0.1, 1.0, 1.0, 0.5, 0.3, 0.1, 1.0],
+     'world.obstacles.box: the polygon is not convex'),
+    # A pentagram: every corner turns the same way, but it winds twice.
+    (['polygon', *np.ravel([(1.0 + 0.5 * math.cos(a), 1.0 + 0.5 * math.sin(a))
+                            for a in np.arange(5) * 4 * math.pi / 5]).tolist()],
+     'the polygon is not convex (or crosses itself)'),
+    (['disc', 1.4, 1.4, 0.1], "world.obstacles.box: covers the centre (1.425, 1.425) of "
+                              "source 'source'"),
+    (['disc', math.inf, 1.0, 0.1], 'expected finite numbers'),
+])
+def test_bad_obstacles_are_refused_naming_the_key(values, fragment):
+    with pytest.raises(ParameterError) as error:
+        WorldParams(obstacles={'box': values})
+    assert fragment in str(error.value)
+
+
+def test_bad_names_and_covered_sources_through_the_whole_config():
+    with pytest.raises(ParameterError, match=r'world.obstacles.Box: an obstacle name must be '
+                                             r'a lower-case identifier'):
+        SwarmConfig().replace(world={'obstacles': {'Box': ['disc', 1.0, 1.0, 0.1]}})
+    with pytest.raises(ParameterError, match=r"world.obstacles.box: covers the centre "
+                                             r"\(0.8, 2.0\) of source 'west'"):
+        SwarmConfig().replace(world={'sources': {'west': [0.8, 2.0, 0.5, 255.0]},
+                                     'obstacles': {'box': ['rect', 0.7, 1.9, 0.9, 2.1]}})
+    with pytest.raises(ParameterError, match=r'world.obstacles.box = 3: expected a non-empty'):
+        SwarmConfig().replace(world={'obstacles': {'box': 3}})
