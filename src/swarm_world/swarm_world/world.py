@@ -44,11 +44,12 @@ class Readings:
 
 
 class World:
-    """N Monas in the walled arena on the cue field."""
+    """N Monas in the walled arena, among its obstacles, on the cue field."""
 
     def __init__(self, params: WorldParams, mona: MonaParams) -> None:
         self.params = params
         self.mona = mona
+        self.arena = params.arena()  #: the walls and the obstacles
         self.bearings = mona.ir_bearings()
         self.field = CueField(params, mona)
         self._step_ns = params.step_ns
@@ -109,7 +110,7 @@ class World:
 
     def _physics(self, poses: np.ndarray) -> Physics:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
-                       self.params.collision_slop)
+                       self.params.collision_slop, self.arena.obstacles)
 
     def sensed_field(self) -> np.ndarray:
         """The cue as the ground sensors see it (each cell the mean over a sensor's footprint);
