@@ -13,7 +13,9 @@ from mona_controller.mona import MonaParams
 from swarm_metrics.metrics import ALL_PAIRS_MAX, coherency
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.episode import Episode
+from swarm_world.arena import Arena, Disc, Rect
 from swarm_world.placement import place_robots, placement_rng
+from swarm_world.reference import check_placement
 from swarm_world.sensors import proximity
 
 BEARINGS = MonaParams().ir_bearings()
@@ -128,23 +130,12 @@ def test_coherency_equals_all_pairs():
 
 
 def test_grid_placement_equals_checking_every_placed_robot():
-    def all_pairs_placement(population, side, rng, gap=0.005):
-        low, high = RADIUS + gap, side - RADIUS - gap
-        poses = np.empty((population, 3))
-        for k in range(population):
-            while True:
-                x, y = rng.uniform(low, high, size=2)
-                placed = poses[:k]
-                if not np.any((placed[:, 0] - x) ** 2 + (placed[:, 1] - y) ** 2
-                              < (2 * RADIUS + gap) ** 2):
-                    break
-            poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
-        return poses
-
     for seed, population, side in ((1, 30, 2.85), (2, 300, 2.85), (3, 2000, 18.0)):
-        np.testing.assert_array_equal(
-            place_robots(population, side, RADIUS, placement_rng(seed)),
-            all_pairs_placement(population, side, placement_rng(seed)))
+        check_placement(population, Arena(side), RADIUS, seed)
+    pillars = tuple(Disc(f'p{k}', x, y, 0.3) for k, (x, y) in
+                    enumerate(((3.0, 3.0), (9.0, 4.0), (14.0, 12.0), (5.0, 15.0))))
+    check_placement(2000, Arena(18.0, (*pillars, Rect.of('wall', 8.0, 6.0, 8.2, 14.0))),
+                    RADIUS, 4)
 
 
 def test_ten_thousand_robots_are_placed_apart():
