@@ -15,6 +15,7 @@ import numpy as np
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import noise
+from swarm_world.arena import pack
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
@@ -124,7 +125,8 @@ class World:
         poses = self.poses
         ground = self.ground(poses, np.empty((len(poses), 2), dtype=np.uint8))
         ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
-                                     self.mona.ir_range, self.params.arena_side)
+                                     self.mona.ir_range, self.params.arena_side,
+                                     self.arena.packed)
         if self.noise.ir_miss:
             self.miss_beams(ranges, is_robot)
         return Readings(self.time_ns, ground, ranges, is_robot)
@@ -211,7 +213,8 @@ class WorldBatch:
         self._ir = (np.array([mona.body_radius for mona in monas]),
                     np.array([world.bearings for world in worlds]),
                     np.array([mona.ir_range for mona in monas]),
-                    np.array([world.params.arena_side for world in worlds]))
+                    np.array([world.params.arena_side for world in worlds]),
+                    pack([world.arena for world in worlds]))
         # The worlds with each kind of noise (usually none), with their rows.
         self._noisy_wheels, self._noisy_ground, self._noisy_beams = (
             [(world, rows) for world, rows in zip(worlds, self.slices)
