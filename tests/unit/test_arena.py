@@ -1,13 +1,16 @@
-"""The arena seam: obstacles parsed from world.obstacles, refused with the key named."""
+"""The arena seam: obstacles parsed from world.obstacles (refused with the key named), the cue
+under them."""
 
 import math
 
 import numpy as np
 import pytest
 
+from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig
 from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
+from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams
 
 #: A few of each kind in the paper's arena, none over the paper's source at the centre.
@@ -133,3 +136,36 @@ def test_bad_names_and_covered_sources_through_the_whole_config():
                                      'obstacles': {'box': ['rect', 0.7, 1.9, 0.9, 2.1]}})
     with pytest.raises(ParameterError, match=r'world.obstacles.box = 3: expected a non-empty'):
         SwarmConfig().replace(world={'obstacles': {'box': 3}})
+
+
+def test_obstacle_cue_keep_leaves_the_cue_as_without_obstacles():
+    bare = initial_cue(WorldParams())
+    kept = initial_cue(WorldParams(obstacles=LAYOUT))
+    assert kept.dtype == np.float32 and np.array_equal(kept, bare)
+
+
+def test_obstacle_cue_clear_empties_the_cells_under_obstacles_only():
+    params = WorldParams(obstacles=LAYOUT, obstacle_cue='clear')
+    bare, cleared = initial_cue(WorldParams()), initial_cue(params)
+    under = params.arena().under(params.cells, params.cell_size)
+    assert (cleared[under] == 0).all() and (bare[under] > 0).any()
+    assert np.array_equal(cleared[~under], bare[~under])
+    # The pillar at (0.9, 2.0), radius 0.15: about pi 0.15^2 / 0.01^2 = 707 cells.
+    assert abs(under.sum() - (707 + 10 * 80 + 1150)) < 100
+    assert CueField(params, MonaParams()).initial_mean < CueField(WorldParams(),
+                                                                  MonaParams()).initial_mean
+    assert not params.paper_field and WorldParams(obstacles=LAYOUT).paper_field
+
+
+def test_obstacle_cue_clear_applies_to_a_cue_file_too(tmp_path):
+    path = tmp_path / 'map.npy'
+    np.save(path, np.full((10, 10), 200.0))
+    params = WorldParams(cue_file=str(path), obstacles=LAYOUT, obstacle_cue='clear')
+    cue = initial_cue(params)
+    under = params.arena().under(params.cells, params.cell_size)
+    assert (cue[under] == 0).all() and (cue[~under] == 200).all()
+
+
+def test_a_bad_obstacle_cue_is_refused():
+    with pytest.raises(ParameterError, match=r"world.obstacle_cue = 'wipe' is not allowed"):
+        WorldParams(obstacle_cue='wipe')

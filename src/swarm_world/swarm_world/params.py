@@ -9,6 +9,8 @@ from swarm_world.arena import Arena, parse_obstacles
 from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal')
+#: What the initial cue is under an obstacle: the sources' profile, or none.
+OBSTACLE_CUE = ('keep', 'clear')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +72,10 @@ class WorldParams:
                                  'y0, x1, y1] or [polygon, x1, y1, x2, y2, x3, y3, ...] (m; '
                                  'a convex polygon; the kind may be left out: docs/model.md '
                                  '"Obstacles"); none: the bare square')
+    obstacle_cue: str = param('keep', choices=OBSTACLE_CUE,
+                              doc="the initial cue under an obstacle: 'keep' it (robots "
+                                  "cannot reach it to clean it) or 'clear' it (0 in every "
+                                  "cell whose centre an obstacle covers)")
 
     def __post_init__(self) -> None:
         validate(self, 'world.')
@@ -149,10 +155,12 @@ class WorldParams:
 
     @property
     def paper_field(self) -> bool:
-        """Whether the cue is the paper's: one still disc, no file, no transport."""
+        """Whether the cue is the paper's: one still disc, no file, no transport, none of it
+        cleared under obstacles."""
         return not (self.sources or self.source_emission or self.source_velocity
                     or self.source_path or self.source_profile or self.cue_file
-                    or self.diffusion or self.half_life)
+                    or self.diffusion or self.half_life
+                    or (self.obstacles and self.obstacle_cue == 'clear'))
 
     @property
     def step_ns(self) -> int:
