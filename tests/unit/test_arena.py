@@ -3,14 +3,16 @@ under them, and episodes among them: no robot enters one, the IR sees them as wa
 placement avoids them, a batch of mixed layouts equals each episode alone."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_supervisor.batch import Batch
-from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.episode import Episode
 from swarm_supervisor.runner import run_batch, run_episode
 from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
@@ -338,3 +340,14 @@ def test_a_batch_of_obstacle_layouts_through_the_runner_equals_the_lone_runs():
         assert result.metrics == lone.metrics
         for name in ('initial_poses', 'final_poses', 'final_cue'):
             assert np.array_equal(getattr(result, name), getattr(lone, name)), name
+
+
+def test_the_obstacles_design_loads_and_is_a_valid_ros_parameter_file():
+    design = Path(__file__).resolve().parents[2] / 'ros_ws/config/designs/obstacles.yaml'
+    config = load_config(design)
+    arena = config.world.arena()
+    assert [o.kind for o in arena.obstacles] == ['disc'] * 4 + ['rect']
+    assert config.study.factors == (('world.obstacle_cue', ('keep', 'clear')),)
+    # rcl refuses a list mixing types (strings and numbers, or integers and floats).
+    raw = yaml.safe_load(design.read_text())['/**']['ros__parameters']['world']['obstacles']
+    assert all(all(type(v) is float for v in values) for values in raw.values())
