@@ -45,7 +45,7 @@ class WorldParams:
                                "none: the paper's one disc ('source': the arena centre, "
                                'cue_diameter, cue_peak)')
     source_profile: tuple = param((), keyed=True,
-                                  doc="name -> ['linear' | 'gaussian'] (default linear; "
+                                  doc="name -> ['linear'] or ['gaussian'] (default linear; "
                                       'gaussian: sigma = radius / 3, 0 beyond the radius)')
     source_emission: tuple = param((), keyed=True,
                                    doc='name -> [cue units/s]: a leaking source restores its '
