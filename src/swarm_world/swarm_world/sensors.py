@@ -80,7 +80,7 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
     noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     poses = np.ascontiguousarray(poses, dtype=np.float64)
     return ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
-                          noise, out)
+                         noise, out)
 
 
 @numba.njit(cache=True)
@@ -102,7 +102,7 @@ def ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, 
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
-                       noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
+                      noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
     return out
 
 
@@ -198,7 +198,8 @@ def ray_walls(x, y, ux, uy, side):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def ray_disc(x, y, ux, uy, cx, cy, radius):  # pragma: no cover - jitted
     """The distance along the beam from (x, y) in direction (ux, uy) to the disc of centre
-    (cx, cy): 0 from inside it, inf if it misses (a tangent beam touches it)."""
+    (cx, cy): 0 from inside it, inf if it misses (a tangent beam touches it, if rounding
+    leaves it tangent)."""
     dx, dy = cx - x, cy - y
     along = ux * dx + uy * dy  # the centre's foot on the beam
     outside = dx * dx + dy * dy - radius * radius
