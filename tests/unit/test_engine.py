@@ -94,6 +94,16 @@ def test_the_profiled_step_is_the_same_step(reference):
     assert all(seconds > 0 for seconds in episode.profile.values())
 
 
+def test_the_profiled_step_senses_as_the_real_step_with_footprint_noise_and_obstacles():
+    # Every sensing path: the footprint's sensed field, the three noise streams, obstacles
+    # seen by the IR, and a control period.
+    config = CONFIG.replace(mona={'ground_footprint': 0.03, 'ground_noise': 5.0,
+                                  'ir_miss': 0.2, 'wheel_noise': 0.05},
+                            world={'obstacles': {'pillar': [1.2, 1.2, 0.15]},
+                                   'control_steps': 2})
+    assert_same_run(drive(Episode(config, profile=True)), drive(Episode(config)))
+
+
 def test_reset_with_a_seed_replays_that_seed():
     episode = Episode(CONFIG)
     first = drive(episode)

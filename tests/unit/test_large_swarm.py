@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import pytest
 
@@ -13,49 +12,12 @@ from mona_controller.mona import MonaParams
 from swarm_metrics.metrics import ALL_PAIRS_MAX, coherency
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
+from swarm_world.arena import Arena, Disc, Polygon, Rect
 from swarm_world.placement import place_robots, placement_rng
-from swarm_world.sensors import proximity
+from swarm_world.reference import check_ir, check_placement
 
 BEARINGS = MonaParams().ir_bearings()
 RADIUS, IR_RANGE = 0.04, 0.03
-
-
-@numba.njit(cache=True)
-def all_pairs_ir(poses, body_radius, bearings, ir_range, arena_side):  # pragma: no cover
-    """The IR kernel as it was before cell lists: every robot against every other one."""
-    n, k = poses.shape[0], bearings.shape[0]
-    hit = np.empty((n, k))
-    is_robot = np.zeros((n, k), dtype=np.bool_)
-    reach = body_radius + ir_range
-    close = (2.0 * body_radius + ir_range) ** 2
-    radius_sq = body_radius * body_radius
-    for i in range(n):
-        x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
-        near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
-        for b in range(k):
-            hit[i, b] = np.inf
-            if near_wall:
-                ux, uy = math.cos(heading + bearings[b]), math.sin(heading + bearings[b])
-                tx = (arena_side - x) / ux if ux > 0 else (-x / ux if ux < 0 else np.inf)
-                ty = (arena_side - y) / uy if uy > 0 else (-y / uy if uy < 0 else np.inf)
-                if min(tx, ty) <= reach:
-                    hit[i, b] = min(tx, ty)
-        for j in range(n):
-            dx, dy = poses[j, 0] - x, poses[j, 1] - y
-            distance_sq = dx * dx + dy * dy
-            if j == i or distance_sq >= close:
-                continue
-            for b in range(k):
-                ux, uy = math.cos(heading + bearings[b]), math.sin(heading + bearings[b])
-                along = ux * dx + uy * dy
-                disc = along * along - (distance_sq - radius_sq)
-                if disc < 0.0 or along <= 0.0:
-                    continue
-                t = max(along - math.sqrt(disc), 0.0)
-                if t <= reach and t < hit[i, b]:
-                    hit[i, b] = t
-                    is_robot[i, b] = True
-    return np.maximum(hit - body_radius, 0.0).astype(np.float32), is_robot
 
 
 def random_swarm(rng: np.random.Generator, population: int, side: float) -> np.ndarray:
@@ -95,12 +57,20 @@ def test_cell_list_ir_equals_all_pairs_bit_for_bit(seed):
     for population in (0, 1, 2, 7, 60, 400, 1500):
         side = float(rng.uniform(0.5, 2.85 * math.sqrt(max(population, 1) / 50) + 0.5))
         poses = random_swarm(rng, population, side)
-        fast = proximity(poses, RADIUS, BEARINGS, IR_RANGE, side)
-        slow = all_pairs_ir(poses, RADIUS, BEARINGS, IR_RANGE, side)
-        np.testing.assert_array_equal(fast[0], slow[0])
-        np.testing.assert_array_equal(fast[1], slow[1])
+        ranges, is_robot = check_ir(poses, RADIUS, BEARINGS, IR_RANGE, Arena(side))
         if population >= 60:
-            assert fast[1].any() and np.isfinite(fast[0]).any()  # they do see each other
+            assert is_robot.any() and np.isfinite(ranges).any()  # they do see each other
+
+
+def test_cell_list_ir_among_obstacles_equals_all_pairs():
+    rng = np.random.default_rng(21)
+    side = 2.85 * math.sqrt(1500 / 50)
+    arena = Arena(side, (Disc('pillar', 4.0, 4.0, 0.5), Rect.of('wall', 8.0, 2.0, 8.1, 12.0),
+                         Polygon('wedge', ((1.0, 10.0), (3.0, 10.5), (2.0, 13.0)))))
+    poses = random_swarm(rng, 1500, side)
+    for turn in (0.0, 5000.0, 1e5, -3e6):  # headings as pymunk leaves them, past 1e4 too
+        ranges, is_robot = check_ir(poses + [0, 0, turn], RADIUS, BEARINGS, IR_RANGE, arena)
+        assert is_robot.any() and (np.isfinite(ranges) & ~is_robot).any()
 
 
 def test_cell_list_ir_in_a_tiny_arena_and_with_a_lost_robot():
@@ -108,10 +78,9 @@ def test_cell_list_ir_in_a_tiny_arena_and_with_a_lost_robot():
     poses = random_swarm(rng, 30, 0.3)  # narrower than one cell: a 1 x 1 grid
     poses[3] = (np.nan, np.nan, 0.0)  # a robot whose physics failed sees and is seen by none
     poses[4] = (50.0, -50.0, 1.0)  # far outside: clamped into an edge cell
-    fast = proximity(poses, RADIUS, BEARINGS, IR_RANGE, 0.3)
-    slow = all_pairs_ir(poses, RADIUS, BEARINGS, IR_RANGE, 0.3)
-    np.testing.assert_array_equal(fast[0], slow[0])
-    np.testing.assert_array_equal(fast[1], slow[1])
+    for arena in (Arena(0.3), Arena(0.3, (Disc('pillar', 0.15, 0.15, 0.03),))):
+        ranges, _ = check_ir(poses, RADIUS, BEARINGS, IR_RANGE, arena)
+        assert np.isinf(ranges[3]).all()
 
 
 def test_coherency_equals_all_pairs():
@@ -128,23 +97,12 @@ def test_coherency_equals_all_pairs():
 
 
 def test_grid_placement_equals_checking_every_placed_robot():
-    def all_pairs_placement(population, side, rng, gap=0.005):
-        low, high = RADIUS + gap, side - RADIUS - gap
-        poses = np.empty((population, 3))
-        for k in range(population):
-            while True:
-                x, y = rng.uniform(low, high, size=2)
-                placed = poses[:k]
-                if not np.any((placed[:, 0] - x) ** 2 + (placed[:, 1] - y) ** 2
-                              < (2 * RADIUS + gap) ** 2):
-                    break
-            poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
-        return poses
-
     for seed, population, side in ((1, 30, 2.85), (2, 300, 2.85), (3, 2000, 18.0)):
-        np.testing.assert_array_equal(
-            place_robots(population, side, RADIUS, placement_rng(seed)),
-            all_pairs_placement(population, side, placement_rng(seed)))
+        check_placement(population, Arena(side), RADIUS, seed)
+    pillars = tuple(Disc(f'p{k}', x, y, 0.3) for k, (x, y) in
+                    enumerate(((3.0, 3.0), (9.0, 4.0), (14.0, 12.0), (5.0, 15.0))))
+    check_placement(2000, Arena(18.0, (*pillars, Rect.of('wall', 8.0, 6.0, 8.2, 14.0))),
+                    RADIUS, 4)
 
 
 def test_ten_thousand_robots_are_placed_apart():

@@ -23,12 +23,17 @@ from swarm_world.sources import Source, load_cue_file
 
 def initial_cue(params: WorldParams) -> np.ndarray:
     """The cue at t = 0: the file's map if ``world.cue_file`` is set, else the highest of the
-    sources' profiles at each cell (the paper's disc by default), float32 cue units."""
+    sources' profiles at each cell (the paper's disc by default), float32 cue units; with
+    ``world.obstacle_cue: clear``, 0 in every cell whose centre an obstacle covers."""
     if params.cue_file:
-        return load_cue_file(params.cue_file, params.cells)
-    deposits = [source.deposit(params.cells, params.cell_size, 0.0, params.arena_side)
-                for source in params.source_list()]
-    return np.maximum.reduce(deposits).astype(np.float32)
+        cue = load_cue_file(params.cue_file, params.cells)
+    else:
+        deposits = [source.deposit(params.cells, params.cell_size, 0.0, params.arena_side)
+                    for source in params.source_list()]
+        cue = np.maximum.reduce(deposits).astype(np.float32)
+    if params.obstacle_cue == 'clear' and params.obstacles:
+        cue[params.arena().under(params.cells, params.cell_size)] = 0.0
+    return cue
 
 
 class CueField:

@@ -5,9 +5,12 @@ from __future__ import annotations
 import dataclasses
 
 from mona_controller.schema import ParameterError, param, validate
+from swarm_world.arena import Arena, parse_obstacles
 from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal', 'blend')
+#: What the initial cue is under an obstacle: the sources' profile, or none.
+OBSTACLE_CUE = ('keep', 'clear')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,7 +51,7 @@ class WorldParams:
                                "none: the paper's one disc ('source': the arena centre, "
                                'cue_diameter, cue_peak)')
     source_profile: tuple = param((), keyed=True,
-                                  doc="name -> ['linear' | 'gaussian'] (default linear; "
+                                  doc="name -> ['linear'] or ['gaussian'] (default linear; "
                                       'gaussian: sigma = radius / 3, 0 beyond the radius)')
     source_emission: tuple = param((), keyed=True,
                                    doc='name -> [cue units/s]: a leaking source restores its '
@@ -70,10 +73,20 @@ class WorldParams:
     transport_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
                                     doc='how often diffusion, evaporation and emission update '
                                         'the cue (sim time)')
+    obstacles: tuple = param((), keyed=True,
+                             doc='static obstacles, name -> [disc, x, y, radius], [rect, x0, '
+                                 'y0, x1, y1] or [polygon, x1, y1, x2, y2, x3, y3, ...] (m; '
+                                 'a convex polygon; the kind may be left out: docs/model.md '
+                                 '"Obstacles"); none: the bare square')
+    obstacle_cue: str = param('keep', choices=OBSTACLE_CUE,
+                              doc="the initial cue under an obstacle: 'keep' it (robots "
+                                  "cannot reach it to clean it) or 'clear' it (0 in every "
+                                  "cell whose centre an obstacle covers)")
 
     def __post_init__(self) -> None:
         validate(self, 'world.')
         self.source_list()  # names, lengths and places checked at start-up
+        self.arena()  # the obstacles too
         if not (self.sources or self.cue_file) and self.cue_diameter > self.arena_side * 1.4143:
             raise ParameterError(f'world.cue_diameter = {self.cue_diameter} exceeds the arena '
                                  f'diagonal ({self.arena_side} m side)')
@@ -137,12 +150,23 @@ class WorldParams:
                                  tuple(velocity), path[0], points))
         return result
 
+    def arena(self) -> Arena:
+        """The walled arena and its obstacles (in name order).
+
+        Raises:
+            ParameterError: a bad obstacle (see :func:`swarm_world.arena.parse_obstacles`).
+        """
+        sources = [(source.name, source.x, source.y) for source in self.source_list()]
+        return Arena(self.arena_side, parse_obstacles(self.obstacles, self.arena_side, sources))
+
     @property
     def paper_field(self) -> bool:
-        """Whether the cue is the paper's: one still disc, no file, no transport."""
+        """Whether the cue is the paper's: one still disc, no file, no transport, none of it
+        cleared under obstacles."""
         return not (self.sources or self.source_emission or self.source_velocity
                     or self.source_path or self.source_profile or self.cue_file
-                    or self.diffusion or self.half_life)
+                    or self.diffusion or self.half_life
+                    or (self.obstacles and self.obstacle_cue == 'clear'))
 
     @property
     def step_ns(self) -> int:

@@ -1,4 +1,4 @@
-"""Rigid-body physics of the Monas in the walled arena (pymunk).
+"""Rigid-body physics of the Monas in the walled arena among its obstacles (pymunk).
 
 Each Mona is a dynamic disc driven by the commanded linear and angular speed (differential
 drive, no wheel slip modelled). The command is applied as the force that brings the body to
@@ -10,10 +10,13 @@ batch call (a per-body Python loop costs about 5x), through pymunk's own batch f
 with their argument blocks built once per episode, and the wrench comes from one compiled
 call; :class:`PhysicsBatch` computes the wrench of every robot of a batch of arenas in that
 one call, into the arrays their spaces' write buffers are bound to, with the same numbers
-in the same order as each space alone.
+in the same order as each space alone. Walls and obstacles (:mod:`swarm_world.arena`) are
+static shapes of the space's static body, neither elastic nor rough.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numba
 import numpy as np
@@ -21,6 +24,7 @@ import pymunk
 import pymunk.batch
 from pymunk._chipmunk_cffi import ffi, lib
 
+from swarm_world.arena import Disc, Obstacle
 from swarm_world.sensors import heading_trig
 
 BODY_MASS = 0.1  # kg; only the ratio between robots matters, and all are equal
@@ -37,11 +41,21 @@ _each_body, _space_step = lib.cpSpaceEachBody, lib.cpSpaceStep
 
 
 class Physics:
-    """A pymunk space holding N robot discs inside four walls. Rebuild it for every episode
-    (pymunk's contact caches would otherwise make replays diverge)."""
+    """A pymunk space holding N robot discs inside four walls, among static obstacles.
+    Rebuild it for every episode (pymunk's contact caches would otherwise make replays
+    diverge)."""
 
     def __init__(self, arena_side: float, body_radius: float, poses: np.ndarray,
-                 collision_slop: float) -> None:
+                 collision_slop: float, obstacles: Sequence[Obstacle] = ()) -> None:
+        """Build the space.
+
+        Args:
+            arena_side: the side of the walled square (m).
+            body_radius: every robot's (m).
+            poses: [N, 3] the robots' initial (x, y, heading).
+            collision_slop: the overlap pymunk allows between colliding shapes (m).
+            obstacles: static shapes in the arena (after the walls, in the order given).
+        """
         self.space = pymunk.Space()
         self.space.collision_slop = collision_slop
         self.count = len(poses)
@@ -64,6 +78,11 @@ class Physics:
             wall.elasticity = 0.0
             wall.friction = 0.0
             self.space.add(wall)
+        for obstacle in obstacles:
+            shape = static_shape(self.space.static_body, obstacle)
+            shape.elasticity = 0.0  # as the walls
+            shape.friction = 0.0
+            self.space.add(shape)
         self._read = pymunk.batch.Buffer()
         self._write = pymunk.batch.Buffer()
         # The space also lists its static body last: the buffers carry one spare row.
@@ -137,6 +156,14 @@ class Physics:
             self._state = np.frombuffer(self._read.float_buf(),
                                         dtype=np.float64).reshape(-1, 6)[:self.count]
         return self._state
+
+
+def static_shape(body: pymunk.Body, obstacle: Obstacle) -> pymunk.Shape:
+    """The pymunk shape of an obstacle on ``body`` (the space's static body): a circle, or
+    the convex polygon of its vertices (a rect is one too)."""
+    if isinstance(obstacle, Disc):
+        return pymunk.Circle(body, obstacle.radius, offset=(obstacle.x, obstacle.y))
+    return pymunk.Poly(body, list(obstacle.vertices))
 
 
 @numba.njit(cache=True)

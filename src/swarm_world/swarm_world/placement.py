@@ -1,10 +1,18 @@
-"""Randomised initial placement of the swarm, as the Webots supervisor did."""
+"""Randomised initial placement of the swarm, as the Webots supervisor did.
+
+Robots are drawn uniformly on the floor, clear of the walls, of each other and of the arena's
+obstacles (:mod:`swarm_world.arena`); :mod:`swarm_world.reference` holds a plain all-pairs
+version that :func:`~swarm_world.reference.check_placement` compares this one with.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+
+from swarm_world.arena import Obstacle
 
 #: The random stream id of placement (controllers use another).
 PLACEMENT_STREAM = 0
@@ -25,22 +33,32 @@ def placement_rng(seed: int) -> np.random.Generator:
 
 def place_robots(population: int, arena_side: float, body_radius: float,
                  rng: np.random.Generator, *, gap: float = 0.005,
-                 tries_per_robot: int = TRIES_PER_ROBOT) -> np.ndarray:
+                 tries_per_robot: int = TRIES_PER_ROBOT,
+                 obstacles: Sequence[Obstacle] = ()) -> np.ndarray:
     """Uniformly random, non-overlapping poses with uniform headings.
 
-    Robots keep ``gap`` metres from the walls and from each other, so none starts touching.
+    Robots keep ``gap`` metres from the walls, from the obstacles and from each other, so
+    none starts touching. Without obstacles the draws and poses are those of an arena that
+    never had any; with them, a spot too close to one is drawn again, as one too close to a
+    robot is.
+
+    Args:
+        obstacles: the arena's (``WorldParams.arena().obstacles``; default none).
 
     Returns:
         [population, 3] float64 poses (x m, y m, heading rad in [-pi, pi)).
 
     Raises:
-        PlacementError: if the robots would cover more than 40 % of the arena or rejection
-            sampling does not converge; the message names the population and the arena.
+        PlacementError: if the robots would cover more than 40 % of the floor the obstacles
+            leave or rejection sampling does not converge; the message names the population
+            and the arena.
     """
-    coverage = population * math.pi * body_radius ** 2 / arena_side ** 2
+    floor = arena_side ** 2 - sum(obstacle.area for obstacle in obstacles)
+    coverage = population * math.pi * body_radius ** 2 / floor if floor > 0 else math.inf
     if coverage > MAX_COVERAGE:
         raise PlacementError(
-            f'population {population} does not fit a {arena_side} m arena: robots of radius '
+            f'population {population} does not fit a {arena_side} m arena'
+            f'{" with its obstacles" if obstacles else ""}: robots of radius '
             f'{body_radius} m would cover {coverage:.0%} of the floor (at most '
             f'{MAX_COVERAGE:.0%})')
     low, high = body_radius + gap, arena_side - body_radius - gap
@@ -49,6 +67,7 @@ def place_robots(population: int, arena_side: float, body_radius: float,
                              f'{arena_side} m arena')
     min_distance = 2 * body_radius + gap
     min_distance_sq = min_distance ** 2
+    clearance = body_radius + gap  # from an obstacle, as from a wall
     # The placed robots, bucketed in square cells min_distance wide: a spot can only be too
     # close to robots in its own and the 8 surrounding cells, so a try costs O(1) instead of
     # O(robots placed) (10,000 robots: 0.1 s instead of minutes). The draws, the distance
@@ -59,9 +78,8 @@ def place_robots(population: int, arena_side: float, body_radius: float,
         for _ in range(tries_per_robot):
             x, y = (float(v) for v in rng.uniform(low, high, size=2))
             col, row = math.floor(x / min_distance), math.floor(y / min_distance)
-            if not any((px - x) ** 2 + (py - y) ** 2 < min_distance_sq
-                       for c in (col - 1, col, col + 1) for r in (row - 1, row, row + 1)
-                       for px, py in cells.get((c, r), ())):
+            if not (_crowded(cells, x, y, col, row, min_distance_sq)
+                    or _blocked(obstacles, x, y, clearance)):
                 break
         else:
             raise PlacementError(f'placing population {population} in a {arena_side} m arena '
@@ -70,3 +88,16 @@ def place_robots(population: int, arena_side: float, body_radius: float,
         cells.setdefault((col, row), []).append((x, y))
         poses[k] = (x, y, rng.uniform(-math.pi, math.pi))
     return poses
+
+
+def _crowded(cells: dict[tuple[int, int], list[tuple[float, float]]], x: float, y: float,
+             col: int, row: int, min_distance_sq: float) -> bool:
+    """Whether a placed robot in the 3 x 3 cells around (col, row) is too close to (x, y)."""
+    return any((px - x) ** 2 + (py - y) ** 2 < min_distance_sq
+               for c in (col - 1, col, col + 1) for r in (row - 1, row, row + 1)
+               for px, py in cells.get((c, r), ()))
+
+
+def _blocked(obstacles: Sequence[Obstacle], x: float, y: float, clearance: float) -> bool:
+    """Whether (x, y) is closer than ``clearance`` to an obstacle (or in one)."""
+    return any(obstacle.clearance(x, y) < clearance for obstacle in obstacles)

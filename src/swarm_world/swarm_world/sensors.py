@@ -7,7 +7,11 @@ The two kernels are compiled with numba: a plain loop over robots, beams and nei
 as the geometry it implements and runs in microseconds, where the vectorised numpy version
 spent most of a step on call overhead. The IR kernel finds a robot's neighbours in a uniform
 grid of cells (cell lists), so a swarm of 10,000 costs what 10,000 robots alone do, not the
-10,000^2 pairs. Both runners use these same functions.
+10,000^2 pairs. A beam sees the nearest of the walls, the arena's obstacles
+(:mod:`swarm_world.arena`, packed in flat arrays) and the other robots, with one ray test per
+kind of shape (:func:`ray_walls`, :func:`ray_disc`, :func:`ray_segment`); an arena without
+obstacles pays one test per robot for them. Both runners use these same functions, and
+:mod:`swarm_world.reference` holds plain-Python references of both.
 """
 
 from __future__ import annotations
@@ -17,8 +21,12 @@ import math
 import numba
 import numpy as np
 
+from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
 
-_NO_NOISE = np.zeros((0, 2))
+#: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
+NO_NOISE = np.zeros((0, 2))
+#: No obstacles (the bare square): what the IR kernels take when there are none.
+NO_OBSTACLES = pack([])
 
 
 @numba.njit(cache=True)
@@ -32,8 +40,18 @@ def heading_trig(poses):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _ground_kernel(cue, cell_size, poses, trig, half_separation, noise,
-                   out):  # pragma: no cover - jitted
+def ground_kernel(cue, cell_size, poses, trig, half_separation, noise,
+                  out):  # pragma: no cover - jitted
+    """The compiled core of :func:`ground_readings`, into ``out`` [N, 2] uint8.
+
+    Args:
+        cue: the sensed field (float32 [rows, cols]).
+        cell_size: m per cell.
+        poses: [N, 3] float64; trig: their :func:`heading_trig`.
+        half_separation: half the wheel separation (m): the sensors sit under the wheels.
+        noise: [N, 2] cue units added before rounding, or :data:`NO_NOISE` (zero rows).
+        out: [N, 2] uint8, filled and returned.
+    """
     last = cue.shape[0] - 1
     noisy = noise.shape[0] > 0
     for i in range(poses.shape[0]):
@@ -59,21 +77,32 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray,
             0..255 (sensor noise; None: none).
     """
     out = np.empty((len(poses), 2), dtype=np.uint8)
-    noise = _NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
+    noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     poses = np.ascontiguousarray(poses, dtype=np.float64)
-    return _ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
-                          noise, out)
+    return ground_kernel(cue, cell_size, poses, heading_trig(poses), wheel_separation / 2,
+                         noise, out)
 
 
 @numba.njit(cache=True)
-def _ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, noise, noisy,
-                        out):  # pragma: no cover - jitted
+def ground_many_kernel(fields, bounds, cell_size, half_separation, poses, trig, noise, noisy,
+                       out):  # pragma: no cover - jitted
+    """:func:`ground_kernel` for several arenas in one call (the batched engine).
+
+    Args:
+        fields: a typed list of each arena's sensed field.
+        bounds: [E + 1] int64, arena e holds robots ``bounds[e]:bounds[e + 1]``.
+        cell_size, half_separation: [E] each arena's.
+        poses, trig: [R, 3] and [R, 2] every robot's, arena after arena.
+        noise: [R, 2] cue units (rows of noisy arenas only are read), or :data:`NO_NOISE`.
+        noisy: [E] bool, whether arena e adds its rows of ``noise``.
+        out: [R, 2] uint8, filled and returned.
+    """
     # Each arena's robots [bounds[e], bounds[e + 1]) on its own field, by the one-arena
     # kernel on their own rows: the same arithmetic, so the same readings, as alone.
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
-        _ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
-                       noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
+        ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], half_separation[e],
+                      noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
     return out
 
 
@@ -135,11 +164,21 @@ _TRUSTED_HEADING = 1e4
 
 
 @numba.njit(cache=True)
-def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
-                      is_robot):  # pragma: no cover - jitted
+def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
+                      geometry, ranges, is_robot):  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
     return _cast(poses, heading_trig(poses), body_radius, bearings, ir_range, arena_side,
-                 ranges, is_robot, *_scratch(n, k))
+                 boxes, kinds, first, geometry, ranges, is_robot, *_scratch(n, k))
+
+
+@numba.njit(cache=True)
+def _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
+                           is_robot):  # pragma: no cover - jitted
+    # _proximity_kernel without obstacles: four arguments fewer to dispatch (about 0.1 us
+    # each, 10 % of a 50-robot call), and None for them compiles _cast without its obstacle
+    # tests (numba prunes the `is not None` branches of a None argument).
+    return _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, None, None,
+                             None, None, ranges, is_robot)
 
 
 @numba.njit(cache=True)
@@ -158,9 +197,92 @@ _BEAM_ROWS = 7
 
 
 @numba.njit(cache=True)
-def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, ranges, is_robot, cell,
-          start, members, beams, exact):  # pragma: no cover - jitted
-    """One arena's IR ring into ranges and is_robot, in the given work arrays."""
+def ray_walls(x, y, ux, uy, side):  # pragma: no cover - jitted
+    """The distance along the beam from (x, y) in direction (ux, uy) to the walls of the
+    square [0, side]^2 (negative from beyond a wall; inf along a wall)."""
+    tx = (side - x) / ux if ux > 0 else (-x / ux if ux < 0 else np.inf)
+    ty = (side - y) / uy if uy > 0 else (-y / uy if uy < 0 else np.inf)
+    return min(tx, ty)
+
+
+@numba.njit(cache=True)
+def ray_disc(x, y, ux, uy, cx, cy, radius):  # pragma: no cover - jitted
+    """The distance along the beam from (x, y) in direction (ux, uy) to the disc of centre
+    (cx, cy): 0 from inside it, inf if it misses (a tangent beam touches it, if rounding
+    leaves it tangent)."""
+    dx, dy = cx - x, cy - y
+    along = ux * dx + uy * dy  # the centre's foot on the beam
+    outside = dx * dx + dy * dy - radius * radius
+    if outside <= 0.0:
+        return 0.0
+    disc = along * along - outside
+    if along > 0.0 and disc >= 0.0:
+        return along - math.sqrt(disc)
+    return np.inf  # points away, or passes by (also NaN)
+
+
+@numba.njit(cache=True)
+def ray_segment(x, y, ux, uy, ax, ay, bx, by):  # pragma: no cover - jitted
+    """The distance along the beam from (x, y) in direction (ux, uy) to the segment from
+    (ax, ay) to (bx, by), ends included; inf if it misses or runs parallel to it (a beam
+    along an edge is seen by the edges at its ends)."""
+    ex, ey = bx - ax, by - ay
+    across = ux * ey - uy * ex
+    if across == 0.0:
+        return np.inf
+    wx, wy = ax - x, ay - y
+    t = (wx * ey - wy * ex) / across
+    s = (wx * uy - wy * ux) / across  # where on the segment, 0 at a, 1 at b
+    if t >= 0.0 and s >= 0.0 and s <= 1.0:
+        return t
+    return np.inf
+
+
+@numba.njit(cache=True)
+def _near(boxes, m, x, y, reach):  # pragma: no cover - jitted
+    """Whether a beam of length ``reach`` from (x, y) may reach obstacle m's bounding box
+    (widened by _MARGIN: a skip test, it must never skip a hit)."""
+    reach = reach + _MARGIN
+    return (x + reach >= boxes[m, 0] and x - reach <= boxes[m, 2]
+            and y + reach >= boxes[m, 1] and y - reach <= boxes[m, 3])
+
+
+@numba.njit(cache=True)
+def _near_any(boxes, x, y, reach):  # pragma: no cover - jitted
+    for m in range(boxes.shape[0]):
+        if _near(boxes, m, x, y, reach):
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy,
+                    hit):  # pragma: no cover - jitted
+    """Lower each beam's hit (exact directions ux, uy) to the nearest obstacle within reach."""
+    for m in range(boxes.shape[0]):
+        if not _near(boxes, m, x, y, reach):
+            continue
+        segments = kinds[m] == SEGMENT_RAYS
+        for row in range(first[m], first[m + 1]):
+            g0, g1 = geometry[row, 0], geometry[row, 1]
+            g2, g3 = geometry[row, 2], geometry[row, 3]
+            for b in range(ux.shape[0]):
+                if segments:
+                    t = ray_segment(x, y, ux[b], uy[b], g0, g1, g2, g3)
+                else:
+                    t = ray_disc(x, y, ux[b], uy[b], g0, g1, g2)
+                if t <= reach and t < hit[b]:
+                    hit[b] = t
+
+
+@numba.njit(cache=True)
+def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
+          geometry, ranges, is_robot, cell, start, members, beams,
+          exact):  # pragma: no cover - jitted
+    """One arena's IR ring into ranges and is_robot, in the given work arrays; the arena's
+    obstacles are boxes, kinds, first (rows of the whole geometry array) as in
+    :class:`~swarm_world.arena.ObstacleArrays`, or None for each (no obstacles: compiled
+    without the obstacle tests)."""
     n, k = poses.shape[0], bearings.shape[0]
     reach = body_radius + ir_range  # a beam's end, from the robot centre
     close = (2.0 * body_radius + ir_range) ** 2  # farther centres cannot be seen
@@ -181,11 +303,14 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, ranges, is_r
     for i in range(n):
         x, y, heading = poses[i, 0], poses[i, 1], poses[i, 2]
         near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
+        near_obstacle = False
+        if boxes is not None:  # compiled out for an arena without obstacles (None)
+            near_obstacle = _near_any(boxes, x, y, reach)
         # The exact directions (10 trigonometric calls) cost most of a robot's time: they are
-        # worked out for every beam near a wall, else only for a beam that may hit a
-        # neighbour by its approximate direction (2 calls per robot), so the readings are
-        # those of the exact directions.
-        approximate = not near_wall and abs(heading) < _TRUSTED_HEADING
+        # worked out for every beam near a wall or an obstacle, else only for a beam that may
+        # hit a neighbour by its approximate direction (2 calls per robot), so the readings
+        # are those of the exact directions.
+        approximate = not near_wall and not near_obstacle and abs(heading) < _TRUSTED_HEADING
         aimed = False
         for b in range(k):
             hit[b] = np.inf
@@ -194,12 +319,14 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, ranges, is_r
             if not approximate:
                 ux[b], uy[b] = math.cos(heading + bearings[b]), math.sin(heading + bearings[b])
             if near_wall:
-                tx = (arena_side - x) / ux[b] if ux[b] > 0 else (
-                    -x / ux[b] if ux[b] < 0 else np.inf)
-                ty = (arena_side - y) / uy[b] if uy[b] > 0 else (
-                    -y / uy[b] if uy[b] < 0 else np.inf)
-                if min(tx, ty) <= reach:
-                    hit[b] = min(tx, ty)
+                t = ray_walls(x, y, ux[b], uy[b], arena_side)
+                if t <= reach:
+                    hit[b] = t
+        # Obstacles before robots: a robot replaces a hit only when strictly nearer, so a
+        # tie is a wall (not a robot), as with the walls.
+        if boxes is not None:
+            if near_obstacle:
+                _cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy, hit)
         col, row = _cell_of(x, width, columns), _cell_of(y, width, columns)
         for r in range(max(row - 1, 0), min(row + 2, columns)):
             for c in range(max(col - 1, 0), min(col + 2, columns)):
@@ -240,26 +367,57 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, ranges, is_r
 
 
 def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_range: float,
-              arena_side: float) -> tuple[np.ndarray, np.ndarray]:
-    """Cast each robot's IR beams (from its centre, at ``bearings``) against robots and walls.
+              arena_side: float, obstacles: ObstacleArrays = NO_OBSTACLES,
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Cast each robot's IR beams (from its centre, at ``bearings``) against robots, walls
+    and obstacles.
+
+    Args:
+        obstacles: the arena's obstacles, ``Arena.packed`` (default: none).
 
     Returns:
         ranges: [N, K] float32, distance from the body edge to the first obstacle within
             ``ir_range``, inf where nothing is in range.
-        is_robot: [N, K] bool, True where that obstacle is another robot.
+        is_robot: [N, K] bool, True where that obstacle is another robot (False for a wall
+            or a static obstacle).
     """
     n, k = len(poses), len(bearings)
-    return _proximity_kernel(
-        np.ascontiguousarray(poses, dtype=np.float64), body_radius,
-        np.ascontiguousarray(bearings, dtype=np.float64), ir_range, arena_side,
-        np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_))
+    poses = np.ascontiguousarray(poses, dtype=np.float64)
+    bearings = np.ascontiguousarray(bearings, dtype=np.float64)
+    ranges, is_robot = np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_)
+    if not len(obstacles.boxes):
+        return _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side,
+                                      ranges, is_robot)
+    return _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side,
+                             obstacles.boxes, obstacles.kinds, obstacles.first,
+                             obstacles.geometry, ranges, is_robot)
 
 
 @numba.njit(cache=True)
 def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range, arena_side,
-                           ranges, is_robot):  # pragma: no cover - jitted
-    # Each episode's robots [bounds[e], bounds[e + 1]) see only each other, by the one-arena
-    # kernel on their own rows: the same arithmetic, so the same readings, as alone.
+                           boxes, kinds, first, geometry, obstacle_bounds, ranges,
+                           is_robot):  # pragma: no cover - jitted
+    # Each episode's robots [bounds[e], bounds[e + 1]) see only each other and their own
+    # arena's obstacles, by the one-arena kernel on their own rows: the same arithmetic, so
+    # the same readings, as alone.
+    most = 0
+    for e in range(bounds.shape[0] - 1):
+        most = max(most, bounds[e + 1] - bounds[e])
+    work = _scratch(most, bearings.shape[1])
+    for e in range(bounds.shape[0] - 1):
+        lo, hi = bounds[e], bounds[e + 1]
+        olo, ohi = obstacle_bounds[e], obstacle_bounds[e + 1]
+        _cast(poses[lo:hi], trig[lo:hi], body_radius[e], bearings[e], ir_range[e],
+              arena_side[e], boxes[olo:ohi], kinds[olo:ohi], first[olo:ohi + 1], geometry,
+              ranges[lo:hi], is_robot[lo:hi], *work)
+    return ranges, is_robot
+
+
+@numba.njit(cache=True)
+def _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
+                                arena_side, ranges, is_robot):  # pragma: no cover - jitted
+    # _proximity_many_kernel when no arena has obstacles: five arrays fewer to pass, and no
+    # obstacle arrays to slice per arena.
     most = 0
     for e in range(bounds.shape[0] - 1):
         most = max(most, bounds[e + 1] - bounds[e])
@@ -267,13 +425,14 @@ def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         _cast(poses[lo:hi], trig[lo:hi], body_radius[e], bearings[e], ir_range[e],
-              arena_side[e], ranges[lo:hi], is_robot[lo:hi], *work)
+              arena_side[e], None, None, None, None, ranges[lo:hi], is_robot[lo:hi], *work)
     return ranges, is_robot
 
 
 def proximity_many(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
                    body_radius: np.ndarray, bearings: np.ndarray, ir_range: np.ndarray,
-                   arena_side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                   arena_side: np.ndarray, obstacles: ObstacleArrays | None = None,
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`proximity` for several arenas at once, in one call (the batched engine).
 
     Args:
@@ -282,13 +441,19 @@ def proximity_many(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
         bounds: [E + 1] int64, arena e holds robots ``bounds[e]:bounds[e + 1]``.
         body_radius, ir_range, arena_side: [E] each arena's.
         bearings: [E, K] each arena's IR bearings (the same number of beams in all).
+        obstacles: every arena's obstacles, ``arena.pack(arenas)`` (its ``bounds`` [E + 1]
+            say whose); None: no arena has any (as when they pack to nothing).
 
     Returns:
         (ranges [N, K] float32, is_robot [N, K] bool), each arena's rows equal to
         :func:`proximity` of that arena alone.
     """
     n, k = len(poses), bearings.shape[1]
-    return _proximity_many_kernel(
-        np.ascontiguousarray(poses, dtype=np.float64), trig, bounds, body_radius,
-        np.ascontiguousarray(bearings, dtype=np.float64), ir_range, arena_side,
-        np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_))
+    poses = np.ascontiguousarray(poses, dtype=np.float64)
+    bearings = np.ascontiguousarray(bearings, dtype=np.float64)
+    ranges, is_robot = np.empty((n, k), dtype=np.float32), np.empty((n, k), dtype=np.bool_)
+    if obstacles is None or not len(obstacles.boxes):
+        return _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings,
+                                           ir_range, arena_side, ranges, is_robot)
+    return _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
+                                  arena_side, *obstacles, ranges, is_robot)

@@ -15,10 +15,11 @@ import numpy as np
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import noise
+from swarm_world.arena import pack
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import (_NO_NOISE, _ground_kernel, _ground_many_kernel, heading_trig,
+from swarm_world.sensors import (NO_NOISE, ground_kernel, ground_many_kernel, heading_trig,
                                  proximity, proximity_many)
 from swarm_world.timing import crossed
 
@@ -44,11 +45,12 @@ class Readings:
 
 
 class World:
-    """N Monas in the walled arena on the cue field."""
+    """N Monas in the walled arena, among its obstacles, on the cue field."""
 
     def __init__(self, params: WorldParams, mona: MonaParams) -> None:
         self.params = params
         self.mona = mona
+        self.arena = params.arena()  #: the walls and the obstacles
         self.bearings = mona.ir_bearings()
         self.field = CueField(params, mona)
         self._step_ns = params.step_ns
@@ -109,7 +111,7 @@ class World:
 
     def _physics(self, poses: np.ndarray) -> Physics:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
-                       self.params.collision_slop)
+                       self.params.collision_slop, self.arena.obstacles)
 
     def sensed_field(self) -> np.ndarray:
         """The cue as the ground sensors see it (each cell the mean over a sensor's footprint);
@@ -120,19 +122,31 @@ class World:
 
     def sense(self) -> Readings:
         """Every robot's readings at the current time."""
+        ground = self.ground_readings()
+        ranges, is_robot = self.ir_readings()
+        return Readings(self.time_ns, ground, ranges, is_robot)
+
+    def ground_readings(self) -> np.ndarray:
+        """Every robot's ground readings now: [N, 2] uint8 (left, right), with this step's
+        sensor noise if any (the ground half of :meth:`sense`)."""
         poses = self.poses
-        ground = self.ground(poses, np.empty((len(poses), 2), dtype=np.uint8))
-        ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
-                                     self.mona.ir_range, self.params.arena_side)
+        return self.ground(poses, np.empty((len(poses), 2), dtype=np.uint8))
+
+    def ir_readings(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every robot's IR ranges [N, K] float32 and robot flags [N, K] now, with this step's
+        missed beams if any (the IR half of :meth:`sense`)."""
+        ranges, is_robot = proximity(self.poses, self.mona.body_radius, self.bearings,
+                                     self.mona.ir_range, self.params.arena_side,
+                                     self.arena.packed)
         if self.noise.ir_miss:
             self.miss_beams(ranges, is_robot)
-        return Readings(self.time_ns, ground, ranges, is_robot)
+        return ranges, is_robot
 
     def ground(self, poses: np.ndarray, out: np.ndarray) -> np.ndarray:
         """The ground readings of robots at ``poses`` (this world's robots, now) into ``out``
         [N, 2] uint8, with this step's sensor noise if any."""
-        extra = self.ground_noise() if self.noise.ground else _NO_NOISE
-        return _ground_kernel(self.sensed_field(), self.params.cell_size, poses,
+        extra = self.ground_noise() if self.noise.ground else NO_NOISE
+        return ground_kernel(self.sensed_field(), self.params.cell_size, poses,
                               heading_trig(poses), self.mona.wheel_separation / 2, extra, out)
 
     def ground_noise(self) -> np.ndarray:
@@ -210,7 +224,8 @@ class WorldBatch:
         self._ir = (np.array([mona.body_radius for mona in monas]),
                     np.array([world.bearings for world in worlds]),
                     np.array([mona.ir_range for mona in monas]),
-                    np.array([world.params.arena_side for world in worlds]))
+                    np.array([world.params.arena_side for world in worlds]),
+                    pack([world.arena for world in worlds]))
         # The worlds with each kind of noise (usually none), with their rows.
         self._noisy_wheels, self._noisy_ground, self._noisy_beams = (
             [(world, rows) for world, rows in zip(worlds, self.slices)
@@ -248,12 +263,12 @@ class WorldBatch:
             field = world.sensed_field()
             if field is not self._field_list[e]:  # a new array (footprint, transport)
                 self._field_list[e] = self._fields[e] = field
-        extra = _NO_NOISE
+        extra = NO_NOISE
         if self._noisy_ground:
             extra = np.zeros((int(self.bounds[-1]), 2))
             for world, rows in self._noisy_ground:
                 extra[rows] = world.ground_noise()
-        return _ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
+        return ground_many_kernel(self._fields, self.bounds, *self._ground, self.poses,
                                    self.trig(), extra, self._ground_noisy,
                                    np.empty((int(self.bounds[-1]), 2), dtype=np.uint8))
 

@@ -16,7 +16,6 @@ from mona_controller.mona import wheels_to_twist
 from swarm_metrics.metrics import sample_field
 from swarm_supervisor.config import SwarmConfig
 from swarm_world.placement import place_robots, placement_rng
-from swarm_world.sensors import ground_readings, proximity
 from swarm_world.timing import crossed
 from swarm_world.world import World
 
@@ -31,7 +30,8 @@ def place_swarm(config: SwarmConfig, seed: int) -> np.ndarray:
         PlacementError: the population does not fit in the arena.
     """
     return place_robots(config.episode.population, config.world.arena_side,
-                        config.mona.body_radius, placement_rng(seed))
+                        config.mona.body_radius, placement_rng(seed),
+                        obstacles=config.world.arena().obstacles)
 
 
 @dataclasses.dataclass(slots=True)
@@ -135,29 +135,24 @@ class Episode:
                     world.cleaned, command)
 
     def _profiled_step(self) -> Step:
-        """:meth:`step` with its parts timed; it senses as ``World.sense`` does, in two halves
-        (tests hold both paths to the same trajectory)."""
+        """:meth:`step` with its parts timed, from the same calls ``World.sense`` makes (the
+        ground half, then the IR half), so the trajectory is the same."""
         world, spent, clock = self.world, self.profile, time.perf_counter
-        mona, poses = world.mona, world.poses
-        t0 = clock()
-        ground = ground_readings(world.cue, world.params.cell_size, poses,
-                                 mona.wheel_separation)
-        t1 = clock()
-        ranges, is_robot = proximity(poses, mona.body_radius, world.bearings, mona.ir_range,
-                                     world.params.arena_side)
-        t2 = clock()
-        command = self.controllers.step(ground, ranges, is_robot, world.now)
-        t3 = clock()
-        linear, angular = wheels_to_twist(command.wheels, mona)
-        before = world.time_ns
-        world.step(linear, angular, command.cleaner)
+        t0 = t1 = t2 = t3 = clock()
+        if world.steps % self.control_steps == 0:
+            ground = world.ground_readings()
+            t1 = clock()
+            ranges, is_robot = world.ir_readings()
+            t2 = clock()
+            self.command = self.controllers.step(ground, ranges, is_robot, world.now)
+            t3 = clock()
+        step = self._advance(self.command)
         t4 = clock()
         spent['ground sensors'] += t1 - t0
         spent['IR sensors'] += t2 - t1
         spent['controller'] += t3 - t2
         spent['physics+cleaning'] += t4 - t3
-        return Step(before, world.time_ns, crossed(before, world.time_ns, self.sample_ns),
-                    world.cleaned, command)
+        return step
 
     def metrics(self) -> dict[str, float]:
         """The metrics row of the current state, stamped with the last sample boundary's time
