@@ -69,6 +69,9 @@ MODELS = {
     'control-period': {'world.control_steps': 3, 'mona.ground_noise': 3.0},
     # The cleaning as a Webots Display blends it, on a raster of its 3.9 mm pixels.
     'display-cleaning': {'world.cleaning': 'blend', 'world.cell_size': 0.00390625},
+    # Ground sensors as Webots infra-red sensors, 6 cm apart and 3 cm ahead of the axle.
+    'webots-ground': {'mona.ground_transfer': 'webots', 'mona.ground_baseline': 0.06,
+                      'mona.ground_offset': 0.03},
     # Turns in place at the robot's own speed.
     'turn-at-speed': {'controller.turn_at': 'speed', 'controller.wait_max': 5.0},
 }

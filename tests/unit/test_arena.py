@@ -18,7 +18,6 @@ from swarm_supervisor.engine.runner import run_batch, run_episode
 from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams
-from swarm_world.placement import place_robots, placement_rng
 from swarm_world.reference import check_ir, check_placement
 from swarm_world.sensors import proximity
 

@@ -41,9 +41,9 @@ def test_ground_noise_is_added_before_quantisation_and_clipped():
     cue[:5, :] = 1.0
     poses = np.array([[0.075, 0.05, 0.0]] * 4)  # left sensor (y + 3.5 cm) on 100.4, right 1.0
     extra = np.array([[0.0, 0.0], [0.2, -3.0], [-200.0, 0.4], [300.0, 254.4]])
-    readings = ground_readings(cue, 0.01, poses, 0.07, extra)
+    readings = ground_readings(cue, 0.01, poses, MonaParams(), extra)
     assert readings.dtype == np.uint8
-    np.testing.assert_array_equal(ground_readings(cue, 0.01, poses, 0.07), [[100, 1]] * 4)
+    np.testing.assert_array_equal(ground_readings(cue, 0.01, poses, MonaParams()), [[100, 1]] * 4)
     np.testing.assert_array_equal(readings, [[100, 1], [101, 0], [0, 1], [255, 255]])
 
 

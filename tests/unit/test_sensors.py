@@ -19,10 +19,10 @@ BEARINGS = MonaParams().ir_bearings()
 def test_ground_sensors_sit_under_the_left_and_right_wheels():
     cue = np.tile(np.arange(100, dtype=np.float32), (100, 1))  # value = column (x cell)
     facing_north = np.array([[0.5, 0.5, math.pi / 2]])
-    left, right = ground_readings(cue, 0.01, facing_north, 0.07)[0]
+    left, right = ground_readings(cue, 0.01, facing_north, MonaParams())[0]
     assert (left, right) == (46, 53)  # left wheel at x = 0.465, right at x = 0.535
     facing_east = np.array([[0.5, 0.5, 0.0]])
-    assert ground_readings(cue, 0.01, facing_east, 0.07)[0].tolist() == [50, 50]
+    assert ground_readings(cue, 0.01, facing_east, MonaParams())[0].tolist() == [50, 50]
 
 
 def test_ir_sees_a_robot_ahead_and_marks_it():

@@ -11,6 +11,9 @@ import numpy as np
 
 from mona_controller.schema import ParameterError, param, validate
 
+#: What a ground sensor reads on a cue value (swarm_world.transfer).
+GROUND_TRANSFERS = ('linear', 'webots', 'table')
+
 #: One wheel command unit in m/s: beta = 6 drives at 8.0 cm/s (the paper; docs/model.md,
 #: Controller).
 WHEEL_UNIT_SPEED = 0.04 / 3.0
@@ -29,6 +32,41 @@ class MonaParams:
                                     doc='wheel speed of one command unit (beta = 6 is 8 cm/s)')
     max_wheel_command: float = param(10.0, unit='wheel units', low=0.1, high=100.0,
                                      doc='the largest wheel command (eq. 2 clamps to [0, this])')
+    ground_baseline: float = param(0.0, unit='m', low=0.0, high=1.0,
+                                   doc='distance between the two ground sensors, left and right '
+                                       'of the heading (0: under the wheels, '
+                                       'wheel_separation apart)')
+    ground_offset: float = param(0.0, unit='m', low=-0.5, high=0.5,
+                                 doc='how far ahead of the wheel axle the ground sensors sit')
+    ground_transfer: str = param('linear', choices=GROUND_TRANSFERS,
+                                 doc="what a ground sensor reads on a cue value: 'linear' the "
+                                     "value itself; 'webots' a Webots infra-red sensor over "
+                                     'the printed cue, calibrated (ground_height, ground_lut, '
+                                     "ground_reflection, ground_roughness, "
+                                     "ground_calibration); 'table' the points of ground_table")
+    ground_height: float = param(0.0099, unit='m', low=1e-4, high=0.5,
+                                 doc="'webots': the sensor's height above the floor (9.9 mm in "
+                                     "the first author's Webots e-puck world)")
+    ground_lut: tuple[float, ...] = param((0.0, 0.0, 0.1, 1000.0), low=0.0, high=1e6,
+                                          doc="'webots': the sensor's lookupTable, "
+                                              '[distance m, raw value, ...], distances '
+                                              "increasing (Webots' default: 1000 at 10 cm)")
+    ground_reflection: float = param(0.2, low=0.0, high=1.0,
+                                     doc="'webots': the share of the hit distance a black floor "
+                                         'keeps: a red level r reads at distance h / (b + '
+                                         "(1 - b) r) (Webots' infra-red rule, b = 0.2)")
+    ground_roughness: float = param(0.0, low=0.0, high=1.0,
+                                    doc="'webots': a PBR floor's roughness, which halves the "
+                                        'red term at 1 (0: a plain Appearance)')
+    ground_calibration: tuple[float, ...] = param((520.0, 90.0), low=-1e6, high=1e6,
+                                                  doc="'webots': the raw values calibrated to "
+                                                      '0 and 255, [black, white] ((520 - raw) '
+                                                      "* 255 / 430 in the first author's "
+                                                      'Webots world)')
+    ground_table: tuple[float, ...] = param((0.0, 0.0, 255.0, 255.0), low=-1e6, high=1e6,
+                                            doc="'table': [cue, reading, ...] points, cue "
+                                                'increasing; linear between them, the end '
+                                                'readings beyond')
     ground_footprint: float = param(0.0, unit='m', low=0.0, high=0.1,
                                     doc='side of the square floor area each ground sensor '
                                         'averages (0: the one cue cell under it)')
@@ -50,6 +88,17 @@ class MonaParams:
 
     def __post_init__(self) -> None:
         validate(self, 'mona.')
+        for name in ('ground_lut', 'ground_table'):
+            points = getattr(self, name)
+            inputs = points[0::2]
+            if len(points) < 4 or len(points) % 2 or any(
+                    b <= a for a, b in zip(inputs, inputs[1:])):
+                raise ParameterError(f'mona.{name} = {list(points)}: expected pairs [x, y, x, y, '
+                                     '...], at least two, x increasing')
+        if len(self.ground_calibration) != 2 or \
+                self.ground_calibration[0] == self.ground_calibration[1]:
+            raise ParameterError(f'mona.ground_calibration = {list(self.ground_calibration)}: '
+                                 'expected two different raw values [black, white]')
         if self.wheel_separation > 2 * self.body_radius:
             raise ParameterError(
                 f'mona.wheel_separation = {self.wheel_separation} must not exceed the body '

@@ -122,7 +122,7 @@ def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: M
     if params.cleaning == 'literal':
         sensed = cue_field.sensed_field(
             cue, cue_field.footprint_cells(mona.ground_footprint, params.cell_size))
-        ground = ground_readings(sensed, params.cell_size, poses, mona.wheel_separation)
+        ground = ground_readings(sensed, params.cell_size, poses, mona)
         levels = ground.astype(np.float64).mean(axis=1)
     cue_field.clean(cue, cells, kernel, literal_levels=levels,
                     blend=params.cleaning == 'blend')

@@ -19,8 +19,9 @@ from swarm_world.arena import pack
 from swarm_world.params import WorldParams
 from swarm_world.field import CueField
 from swarm_world.physics import Physics, PhysicsBatch
+from swarm_world.transfer import transfer_table
 from swarm_world.sensors import (NO_NOISE, ground_kernel, ground_many_kernel, heading_trig,
-                                 proximity, proximity_many)
+                                 proximity, proximity_many, sensor_geometry)
 from swarm_world.timing import crossed
 
 
@@ -56,6 +57,10 @@ class World:
         self._step_ns = params.step_ns
         self._cleaning_ns = round(params.cleaning_period * 1e9)
         self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
+        #: The ground sensors: where they sit (sensors.sensor_geometry) and what they read on
+        #: a cue value (transfer.transfer_table; empty: the value itself).
+        self.sensor_geometry = sensor_geometry(mona)
+        self.transfer = transfer_table(mona)
         self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
         self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
                                        wheel=mona.wheel_noise)
@@ -147,7 +152,8 @@ class World:
         [N, 2] uint8, with this step's sensor noise if any."""
         extra = self.ground_noise() if self.noise.ground else NO_NOISE
         return ground_kernel(self.sensed_field(), self.params.cell_size, poses,
-                              heading_trig(poses), self.mona.wheel_separation / 2, extra, out)
+                             heading_trig(poses), self.sensor_geometry, self.transfer, extra,
+                             out)
 
     def ground_noise(self) -> np.ndarray:
         """[N, 2] this step's ground-sensor noise (cue units): the world's counter-based
@@ -232,8 +238,13 @@ class WorldBatch:
              if getattr(world.noise, kind)] for kind in ('wheel', 'ground', 'ir_miss'))
         self._ground_noisy = np.array([bool(world.noise.ground) for world in worlds])
         self._trig: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))
+        knots = max((len(world.transfer) for world in worlds), default=0)
+        tables = np.zeros((len(worlds), knots))
+        for row, world in zip(tables, worlds):
+            row[:len(world.transfer)] = world.transfer
         self._ground = (np.array([world.params.cell_size for world in worlds]),
-                        np.array([world.mona.wheel_separation / 2 for world in worlds]))
+                        np.array([world.sensor_geometry for world in worlds]).reshape(-1, 2),
+                        tables, np.array([len(world.transfer) > 0 for world in worlds]))
         # Each world's sensed field, in one list the compiled kernel takes, replaced when the
         # world's is a new array (a typed list returns new wrappers: compare the plain list's).
         self._field_list = [world.sensed_field() for world in worlds]
