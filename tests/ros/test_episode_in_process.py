@@ -72,6 +72,9 @@ MODELS = {
     # Ground sensors as Webots infra-red sensors, 6 cm apart and 3 cm ahead of the axle.
     'webots-ground': {'mona.ground_transfer': 'webots', 'mona.ground_baseline': 0.06,
                       'mona.ground_offset': 0.03},
+    # A dark body seen near contact, robot or wall told by place.
+    'encounter-model': {'mona.robot_detection': 'position', 'mona.ir_robot_factor': 0.3,
+                        'mona.ir_miss': 0.1},
     # Turns in place at the robot's own speed.
     'turn-at-speed': {'controller.turn_at': 'speed', 'controller.wait_max': 5.0},
 }

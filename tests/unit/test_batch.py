@@ -26,7 +26,8 @@ def mix() -> list[SwarmConfig]:
                      mona={'ir_range': 0.05, 'ground_footprint': 0.03}),
         base.replace(episode={'population': 8, 'seed': 5},
                      mona={'ground_transfer': 'webots', 'ground_offset': 0.03,
-                           'ground_baseline': 0.05, 'ground_noise': 2.0}),
+                           'ground_baseline': 0.05, 'ground_noise': 2.0,
+                           'robot_detection': 'position', 'ir_robot_factor': 0.5}),
     ]
 
 

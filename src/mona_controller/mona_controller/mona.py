@@ -13,6 +13,8 @@ from mona_controller.schema import ParameterError, param, validate
 
 #: What a ground sensor reads on a cue value (swarm_world.transfer).
 GROUND_TRANSFERS = ('linear', 'webots', 'table')
+#: How a robot tells a robot from a wall (swarm_world.world.World.perceive).
+ROBOT_DETECTIONS = ('beam', 'position')
 
 #: One wheel command unit in m/s: beta = 6 drives at 8.0 cm/s (the paper; docs/model.md,
 #: Controller).
@@ -85,6 +87,19 @@ class MonaParams:
                            doc='angle between the outermost IR sensors (140 deg)')
     ir_range: float = param(0.03, unit='m', low=0.001, high=0.5,
                             doc='IR detection range, measured from the body edge')
+    ir_robot_factor: float = param(1.0, low=0.01, high=1.0,
+                                   doc='a robot body is seen within ir_range x this (a dark '
+                                       "body reflects less: Webots' infra-red factor 0.2 + "
+                                       '0.8 red gives 0.2 for a black one); a beam it stops '
+                                       'farther away sees nothing')
+    robot_detection: str = param('beam', choices=ROBOT_DETECTIONS,
+                                 doc="how a robot tells a robot from a wall: 'beam' by what "
+                                     "the beam hit; 'position' anything its beams see is a "
+                                     'wall when its centre is within wall_margin of a wall '
+                                     'or an obstacle, else a robot')
+    wall_margin: float = param(0.05, unit='m', low=0.0, high=1.0,
+                               doc="'position': how close to a wall or an obstacle (from the "
+                                   'centre) a robot takes what it sees for a wall')
 
     def __post_init__(self) -> None:
         validate(self, 'mona.')

@@ -140,12 +140,45 @@ class World:
     def ir_readings(self) -> tuple[np.ndarray, np.ndarray]:
         """Every robot's IR ranges [N, K] float32 and robot flags [N, K] now, with this step's
         missed beams if any (the IR half of :meth:`sense`)."""
-        ranges, is_robot = proximity(self.poses, self.mona.body_radius, self.bearings,
+        poses = self.poses
+        ranges, is_robot = proximity(poses, self.mona.body_radius, self.bearings,
                                      self.mona.ir_range, self.params.arena_side,
                                      self.arena.packed)
+        if self.perceives:
+            self.perceive(ranges, is_robot, poses)
+        return ranges, is_robot
+
+    @property
+    def perceives(self) -> bool:
+        """Whether :meth:`perceive` changes anything (else the beams are the geometry's)."""
+        mona = self.mona
+        return (mona.ir_robot_factor < 1.0 or bool(self.noise.ir_miss)
+                or mona.robot_detection == 'position')
+
+    def perceive(self, ranges: np.ndarray, is_robot: np.ndarray, poses: np.ndarray) -> None:
+        """In place, what this world's robots make of their beams beyond the geometry: a
+        robot body is seen only within ``ir_range x ir_robot_factor`` (farther, the beam it
+        stops sees nothing), this step's missed beams drop out (``ir_miss``), and with
+        ``robot_detection: position`` whatever a beam sees is a wall when the robot's centre
+        is within ``wall_margin`` of a wall or an obstacle, else a robot."""
+        mona = self.mona
+        if mona.ir_robot_factor < 1.0:
+            far = is_robot & (ranges > mona.ir_range * mona.ir_robot_factor)
+            ranges[far] = np.inf
+            is_robot[far] = False
         if self.noise.ir_miss:
             self.miss_beams(ranges, is_robot)
-        return ranges, is_robot
+        if mona.robot_detection == 'position':
+            near = self.clearance(poses) < mona.wall_margin
+            is_robot[:] = (ranges < np.inf) & ~near[:, None]
+
+    def clearance(self, poses: np.ndarray) -> np.ndarray:
+        """[N] how far each robot's centre is from the nearest wall or obstacle (m)."""
+        x, y, side = poses[:, 0], poses[:, 1], self.params.arena_side
+        walls = np.minimum(np.minimum(x, y), np.minimum(side - x, side - y))
+        if not self.arena.obstacles:
+            return walls
+        return np.array([self.arena.clearance(px, py) for px, py in poses[:, :2].tolist()])
 
     def ground(self, poses: np.ndarray, out: np.ndarray) -> np.ndarray:
         """The ground readings of robots at ``poses`` (this world's robots, now) into ``out``
@@ -233,9 +266,12 @@ class WorldBatch:
                     np.array([world.params.arena_side for world in worlds]),
                     pack([world.arena for world in worlds]))
         # The worlds with each kind of noise (usually none), with their rows.
-        self._noisy_wheels, self._noisy_ground, self._noisy_beams = (
+        self._noisy_wheels, self._noisy_ground = (
             [(world, rows) for world, rows in zip(worlds, self.slices)
-             if getattr(world.noise, kind)] for kind in ('wheel', 'ground', 'ir_miss'))
+             if getattr(world.noise, kind)] for kind in ('wheel', 'ground'))
+        # The worlds whose robots make more of their beams than the geometry (World.perceive).
+        self._perceiving = [(world, rows) for world, rows in zip(worlds, self.slices)
+                            if world.perceives]
         self._ground_noisy = np.array([bool(world.noise.ground) for world in worlds])
         self._trig: tuple[np.ndarray | None, np.ndarray] = (None, np.zeros((0, 2)))
         knots = max((len(world.transfer) for world in worlds), default=0)
@@ -286,8 +322,9 @@ class WorldBatch:
     def proximity(self) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`sense`'s IR readings (ranges, is_robot)."""
         ranges, is_robot = proximity_many(self.poses, self.trig(), self.bounds, *self._ir)
-        for world, rows in self._noisy_beams:
-            world.miss_beams(ranges[rows], is_robot[rows])
+        poses = self.poses
+        for world, rows in self._perceiving:
+            world.perceive(ranges[rows], is_robot[rows], poses[rows])
         return ranges, is_robot
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
