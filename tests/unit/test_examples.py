@@ -56,3 +56,17 @@ def test_a_subcommand_of_ones_own(tmp_path, capsys, monkeypatch):
     assert 'run: N = 4, 8 cm/s, seed 1:' in capsys.readouterr().out
     assert main(['summary', str(tmp_path / 'nothing')]) == 2
     assert 'does not exist' in capsys.readouterr().err
+
+
+def test_an_obstacle_layout_of_ones_own_runs_and_keeps_robots_out(tmp_path):
+    layout = ROOT / 'examples' / 'obstacle_layout.yaml'
+    config = load_config(layout)
+    arena = config.world.arena()
+    assert len(arena.obstacles) == 8
+    out = tmp_path / 'ring'
+    assert main(['run', '--config', str(layout), '--population', '20', '--duration', '30',
+                 '--out', str(out)]) == 0
+    final = np.load(out / 'snapshots.npz')['final_poses']
+    # Every robot's centre at least its radius from every obstacle (less the collision slop
+    # and one step's travel, see tests/unit/test_arena.py).
+    assert min(arena.clearance(x, y) for x, y in final[:, :2]) > 0.04 - 0.0048
