@@ -137,7 +137,8 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
         for result in sorted(results, key=lambda r: r.number):
             study.tell(result.number, result.score.loss)
             best = min(load_results(out), key=lambda r: (r.score.loss, r.number))
-            say(f'trial {result.number + 1}/{design.trials}: loss {result.score.loss:.3f} '
+            say(f'trial {result.number} ({result.number + 1} of {design.trials}): loss '
+                f'{result.score.loss:.3f} '
                 f'({len(result.score.held)}/{len(result.score.held) + len(result.score.failed)} '
                 f'claims, ratio {result.score.ratio:.3g}) {_values_text(result.values)}; '
                 f'best so far: trial {best.number} ({best.score.loss:.3f})')
