@@ -15,7 +15,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
 from mona_controller import qos, topics
 from mona_controller.topics import TOPICS
-from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.metrics_node import RECORDED, RECORDED_ALL, MetricsNode
 from swarm_supervisor.system.live_node import NODE_TOPICS, LiveNode
 
@@ -93,7 +93,7 @@ def test_the_metrics_node_subscribes_to_the_tables_recorded_topics(context, tmp_
                      if TOPICS[n].per_robot]
         assert endpoints(node.subscriptions) == as_table([*RECORDED, *world_wide, *per_robot])
         assert endpoints(node.publishers) == as_table(
-            [topics.RECORDERS, *(topics.metric_topic(name) for name in METRIC_NAMES)])
+            [topics.RECORDERS, *(topics.metric_topic(name) for name in metric_names())])
     finally:
         node.destroy_node()
 

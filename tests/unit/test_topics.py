@@ -14,7 +14,7 @@ import pytest
 from mona_controller import contract, topics
 from mona_controller.topics import TOPICS
 from swarm_metrics.bag_writer import offered_qos
-from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics import metric_names
 from swarm_supervisor.media import live, recorded
 from swarm_supervisor.outputs import bag
 
@@ -45,9 +45,9 @@ def test_names_resolve_to_their_entry():
 def test_the_embedded_bag_records_the_tables_recorded_topics():
     expected = {name: (topic.type, offered_qos(topic.qos.depth, reliable=topic.qos.reliable,
                                                latched=topic.qos.latched))
-                for name, topic in topics.expand(topics.recorded(), METRIC_NAMES).items()}
+                for name, topic in topics.expand(topics.recorded(), metric_names()).items()}
     assert bag.TOPICS == expected
-    assert {f'/metrics/{name}' for name in METRIC_NAMES} <= set(bag.TOPICS)
+    assert {f'/metrics/{name}' for name in metric_names()} <= set(bag.TOPICS)
     assert topics.ROBOT_STATES in bag.TOPICS and topics.RECORDERS not in bag.TOPICS
     # The offered QoS is the table's numbers, e.g. the poses' deep history.
     assert bag.TOPICS[topics.POSES][1].depth == 1000
@@ -56,7 +56,7 @@ def test_the_embedded_bag_records_the_tables_recorded_topics():
 
 def test_the_live_view_carries_the_tables_live_topics():
     assert live.LIVE_TOPICS == {name: topic.type for name, topic in
-                                topics.expand(topics.live(), METRIC_NAMES).items()}
+                                topics.expand(topics.live(), metric_names()).items()}
     # The cleaning events are shown by the cue map; the grid and markers are live only.
     assert topics.CLEANING not in live.LIVE_TOPICS
     assert {topics.CUE_GRID, topics.MARKERS} <= set(live.LIVE_TOPICS) - set(bag.TOPICS)
@@ -89,7 +89,7 @@ def test_interfaces_md_lists_every_topic_with_its_type_and_depth(name):
     topic = TOPICS[name]
     rows = _doc_rows()
     # The per-metric entry is documented one row per metric.
-    doc_name = f'{name}{METRIC_NAMES[0]}' if topic.per_metric else name
+    doc_name = f'{name}{metric_names()[0]}' if topic.per_metric else name
     assert doc_name in rows, f'docs/interfaces.md has no row for {doc_name}'
     doc_type, doc_qos = rows[doc_name]
     assert topic.type.replace('/msg/', '/') == doc_type

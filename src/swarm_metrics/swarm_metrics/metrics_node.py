@@ -42,7 +42,7 @@ from mona_controller.shutdown import teardown
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
 from swarm_metrics.bag_reader import BagError
 from swarm_metrics.bag_writer import CHUNK_PERIOD
-from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder, Row
 
 EXIT_WORLD_LOST = 3
@@ -96,7 +96,7 @@ class MetricsNode(Node):
                                  record_all=options.record_all)
         self.metric_pubs = {name: self.create_publisher(Float64, qos.metric_topic(name),
                                                         qos.METRICS_QOS)
-                            for name in METRIC_NAMES}
+                            for name in metric_names()}
         self.report_pub = self.create_publisher(String, qos.RECORDERS, qos.RECORDERS_QOS)
         #: What the node does with each topic it records (:data:`RECORDED`, in subscription
         #: order; then :data:`RECORDED_ALL`'s with record_all).

@@ -21,10 +21,10 @@ from typing import NamedTuple
 from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, POSES, STATUS,
                                       TOPICS, ContractError, WorldState, WorldStatus,
                                       metric_topic, topic_of)
-from swarm_metrics.analysis import (METRIC_NAMES, NEVER, AnnouncementError, EpisodeSetup,
-                                    MetricsReplica)
+from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
 from swarm_metrics.bag_writer import EpisodeBagWriter, offered
+from swarm_metrics.metrics import metric_names
 
 STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type
 #: Messages of an episode not yet announced that are kept for its bag (see Recorder.route).
@@ -186,7 +186,7 @@ class Recorder:
         while path.exists():
             path, n = folder / f'bag_{n}', n + 1
         bag = EpisodeBagWriter(path, chunk_period=self.chunk_period)
-        metrics = METRIC_NAMES
+        metrics = metric_names()
         self.episode = Episode(setup, bag, MetricsReplica(setup), metrics,
                                last_pose_ns=setup.start_ns)
         # Samples wait until the world's status says every cleaning event up to them is here.

@@ -32,7 +32,7 @@ from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS
                                       ROBOT_STATES, STATUS, Announcement, WorldState,
                                       WorldStatus, metric_topic)
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.world_cdr import (clock_cdr, cue_grid_cdr, cue_image_cdr, float64_cdr,
                                      markers_cdr, pose_array_cdr, states_cdr, string_cdr)
 from swarm_supervisor.engine.episode import Episode, Step
@@ -62,10 +62,14 @@ def live_topics() -> dict[str, str]:
     cue map shows, plus the cue grid and the robot markers, a 3D view of the cue and of the
     robots coloured by state), one ``/metrics/<name>`` per metric of the table now."""
     return {name: topic.type
-            for name, topic in topics.expand(topics.live(), METRIC_NAMES).items()}
+            for name, topic in topics.expand(topics.live(), metric_names()).items()}
 
 
-LIVE_TOPICS = live_topics()
+def __getattr__(name: str) -> object:
+    # LIVE_TOPICS reads as a constant but follows the metrics table.
+    if name == 'LIVE_TOPICS':
+        return live_topics()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def schema_of(msgtype: str) -> Schema:
@@ -251,7 +255,7 @@ class LiveView(EpisodeObserver):
 
     def _metrics(self, episode: Episode) -> None:
         """The metric sample of now, as /metrics/<name> (only if a client plots them)."""
-        names = METRIC_NAMES
+        names = metric_names()
         topics = [metric_topic(name) for name in names]
         if not any(self.server.wanted(topic) for topic in topics):
             return

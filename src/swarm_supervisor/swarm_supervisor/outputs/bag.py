@@ -27,7 +27,7 @@ from mona_controller import topics
 from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, POSES, ROBOT_STATES,
                                       Announcement, WorldState, WorldStatus)
 from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
-from swarm_metrics.analysis import METRIC_NAMES
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder
 from swarm_metrics.world_cdr import (clock_cdr, cue_image_cdr, pose_array_cdr, states_cdr,
                                      string_cdr)
@@ -47,10 +47,15 @@ def bag_topic_table() -> dict[str, tuple[str, Qos]]:
     metric of the table now. The node system's bags hold the same less ``/world/robot_states``
     (``/world/robot_states``: each robot's controller state at each metrics sample, which only
     the embedded runner knows)."""
-    return bag_topics(topics.expand(topics.recorded(), METRIC_NAMES))
+    return bag_topics(topics.expand(topics.recorded(), metric_names()))
 
 
-TOPICS = bag_topic_table()
+def __getattr__(name: str) -> object:
+    # TOPICS reads as a constant but follows the metrics table (a metric registered after
+    # this module was imported is in it too).
+    if name == 'TOPICS':
+        return bag_topic_table()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def status_json(status: WorldStatus) -> str:

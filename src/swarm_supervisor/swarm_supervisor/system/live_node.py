@@ -42,7 +42,11 @@ def node_topics() -> dict[str, str]:
             if qos.topic_of(name).publisher != EMBEDDED}
 
 
-NODE_TOPICS = node_topics()
+def __getattr__(name: str) -> object:
+    # NODE_TOPICS reads as a constant but follows the metrics table.
+    if name == 'NODE_TOPICS':
+        return node_topics()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 @dataclasses.dataclass(frozen=True)
