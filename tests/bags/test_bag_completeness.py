@@ -17,6 +17,7 @@ import pytest
 from swarm_metrics import completeness
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_metrics.completeness import Finding
+from swarm_metrics.metrics import metric_names
 from swarm_supervisor import study
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config
@@ -227,7 +228,7 @@ def test_gaps_and_an_early_end_are_found():
 
 def test_online_samples_count_only_when_every_metric_has_them():
     sample = 10**9
-    full = {name: [(5 + k * sample, 1.0) for k in range(4)] for name in completeness.METRIC_NAMES}
+    full = {name: [(5 + k * sample, 1.0) for k in range(4)] for name in metric_names()}
     assert completeness.check_online(full, 5, 3.0, 1.0) == []
     assert completeness.check_online({}, 5, 3.0, 1.0) == []  # none recorded: nothing to check
     full['coherency'] = full['coherency'][:2] + full['coherency'][3:]  # t = 2 lost
@@ -235,7 +236,7 @@ def test_online_samples_count_only_when_every_metric_has_them():
     assert finding.where == completeness.ONLINE
     assert '1 of 4 samples' in finding.detail and 'the first at t = 2 s' in finding.detail
     off_grid = {name: [(5 + k * sample + 1, 1.0) for k in range(4)]
-                for name in completeness.METRIC_NAMES}  # 1 ns late: not at a boundary
+                for name in metric_names()}  # 1 ns late: not at a boundary
     assert '4 of 4 samples' in completeness.check_online(off_grid, 5, 3.0, 1.0)[0].detail
 
 

@@ -18,10 +18,10 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
-from mona_controller import qos
+from mona_controller import topics
 from swarm_metrics.bag_reader import read_custom_data, read_episode_bag
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.metrics_node import METRICS_QOS, MetricsNodeParams, bag_qos
+from swarm_metrics.metrics_node import MetricsNodeParams
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.outputs.bag import ROBOT_STATES, TOPICS, BagOptions, record_episode
 
@@ -83,12 +83,6 @@ def plain(topic: str, msg) -> object:
 
 def test_the_embedded_bag_has_the_metrics_node_topics_types_and_qos(bags):
     node_bag, embedded_bag = bags
-    expected = {qos.EPISODE: qos.EPISODE_QOS, qos.STATUS: qos.STATUS_QOS,
-                qos.POSES: qos.POSES_QOS, qos.CLEANING: qos.CLEANING_QOS,
-                qos.CUE_MAP: qos.MAP_QOS, qos.CLOCK: qos.CLOCK_QOS,
-                **{topic: METRICS_QOS for topic in COMPARED if topic.startswith('/metrics/')}}
-    assert {topic: TOPICS[topic][1] for topic in expected} == \
-        {topic: bag_qos(profile) for topic, profile in expected.items()}
     assert BagOptions().cue_map_period == MetricsNodeParams().cue_map_period
     assert BagOptions().clock_period == MetricsNodeParams().clock_period
 
@@ -99,6 +93,11 @@ def test_the_embedded_bag_has_the_metrics_node_topics_types_and_qos(bags):
 
     node_topics, node_custom = connections(node_bag)
     embedded_topics, embedded_custom = connections(embedded_bag)
+    # Both bags hold the contract's recorded topics with its types and QoS; only the
+    # embedded runner publishes /world/robot_states.
+    assert embedded_topics == {topic: (msgtype, [offered])
+                               for topic, (msgtype, offered) in TOPICS.items()}
+    assert topics.TOPICS[ROBOT_STATES].publisher == topics.EMBEDDED
     assert set(embedded_topics) == set(node_topics) | {ROBOT_STATES}
     assert {t: embedded_topics[t] for t in node_topics} == node_topics
     assert set(embedded_custom) == set(node_custom)

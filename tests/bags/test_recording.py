@@ -16,7 +16,7 @@ from swarm_metrics.bag_reader import McapScan, find_mcap, read_episode_bag
 from swarm_metrics.recording import Recorder, float64_cdr
 from swarm_supervisor.config import load_config
 
-from bagtools import TOPICS, embedded_episode_bag, string_cdr
+from bagtools import embedded_episode_bag, string_cdr
 
 CONFIG = load_config().replace(episode={'population': 10, 'duration': 12.0, 'seed': 3})
 
@@ -42,7 +42,7 @@ def feed(recorder: Recorder, messages: list[tuple[str, bytes]]) -> None:
 
 
 def make_recorder(out: Path) -> Recorder:
-    return Recorder(out, dict(TOPICS), chunk_period=5.0, cue_map_period=0.0, clock_period=0.1)
+    return Recorder(out, chunk_period=5.0, cue_map_period=0.0, clock_period=0.1)
 
 
 def test_a_whole_episode_is_recorded_complete_and_equal_to_the_embedded_run(

@@ -6,13 +6,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from mona_controller.topics import TOPICS as CONTRACT
+from mona_controller.topics import metric_topic
+from swarm_metrics.metrics import PAPER_METRICS, plotted
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.outputs.bag import TOPICS
 
 LAYOUT = Path(__file__).parents[2] / 'ros_ws' / 'config' / 'foxglove_layout.json'
 #: Topics only the live view carries (a bag records them only with record_all): the 3D
 #: panel's cue grid and robot markers; docs/bags.md says so.
-LIVE_ONLY = {'/world/cue_grid', '/world/markers'}
+LIVE_ONLY = {name for name, topic in CONTRACT.items() if topic.live and not topic.recorded}
 
 
 def panels(tree) -> list[str]:
@@ -52,11 +55,13 @@ def test_the_layout_names_only_topics_the_bags_and_the_live_view_carry():
     assert everything <= set(LIVE_TOPICS)
     assert everything - LIVE_ONLY <= set(TOPICS)
     assert LIVE_ONLY <= set(LIVE_TOPICS) and not LIVE_ONLY & set(TOPICS)
-    # The three metrics are plotted, the announcement and the status shown, the arena's
-    # robots and cue drawn: from a bag (poses, cue map) and live (markers, grid).
-    plotted = set().union(*(t for p, t in named.items() if p.startswith('Plot')))
-    assert plotted == {'/metrics/mean_cue_fraction', '/metrics/ratio_near_source',
-                       '/metrics/coherency'}
+    # The paper's plotted metrics (the entries with a plot label) are plotted, the
+    # announcement and the status shown, the arena's robots and cue drawn: from a bag (poses,
+    # cue map) and live (markers, grid).
+    shown = set().union(*(t for p, t in named.items() if p.startswith('Plot')))
+    assert shown == {metric_topic(name) for name, _ in plotted() if name in PAPER_METRICS}
+    assert shown == {'/metrics/mean_cue_fraction', '/metrics/ratio_near_source',
+                     '/metrics/coherency'}
     assert {'/episode', '/world/status'} <= everything
     assert named['3D!arena'] == {'/world/poses', '/world/cue_grid', '/world/markers'}
     assert named['Image!cue'] == {'/world/cue_map'}

@@ -1,8 +1,9 @@
 """The topic contract as plain Python: names, world states and the recorder protocol.
 
-ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use
-(:mod:`mona_controller.qos` adds the QoS profiles and re-exports the names). The page that
-explains it is docs/interfaces.md.
+ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use.
+The topics themselves (name, type, QoS, publisher, what a bag records) are one table,
+:data:`mona_controller.topics.TOPICS`, re-exported here; :mod:`mona_controller.qos` builds
+the rclpy profiles from it. The page that explains it is docs/interfaces.md.
 """
 
 from __future__ import annotations
@@ -13,36 +14,14 @@ import json
 import math
 from collections.abc import Iterable
 
-# Per robot, relative to the namespace /mona_<i>.
-GROUND = 'ground'
-PROXIMITY = 'proximity'
-CMD_VEL = 'cmd_vel'
-CLEANER = 'cleaner'
-
-# World, supervisor and recorders (absolute).
-CLOCK = '/clock'
-POSES = '/world/poses'
-CLEANING = '/world/cleaning'
-CUE_MAP = '/world/cue_map'
-CUE_GRID = '/world/cue_grid'
-MARKERS = '/world/markers'
-STATUS = '/world/status'
-EPISODE = '/episode'
-RECORDERS = '/recorders'
-METRICS_PREFIX = '/metrics/'
+# The topic names and the table they belong to (re-exported: one import for the contract).
+from mona_controller.topics import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
+                                    CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX, POSES,
+                                    PROXIMITY, RECORDERS, ROBOT_STATES, STATUS, TOPICS, QoS,
+                                    Topic, metric_topic, robot_namespace, robot_topic, topic_of)
 
 #: The world frame (REP 103: origin at an arena corner, x and y along the walls).
 WORLD_FRAME = 'world'
-
-
-def robot_namespace(robot_id: int) -> str:
-    """The namespace of robot ``robot_id`` (ROS names must not start with a digit)."""
-    return f'/mona_{robot_id}'
-
-
-def robot_topic(robot_id: int, name: str) -> str:
-    """The absolute name of a per-robot topic, e.g. ``/mona_3/cmd_vel``."""
-    return f'{robot_namespace(robot_id)}/{name}'
 
 
 def base_frame(robot_id: int) -> str:

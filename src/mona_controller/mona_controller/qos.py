@@ -1,49 +1,70 @@
-"""The topic contract's QoS: a named profile per topic (docs/interfaces.md).
+"""The topic contract's QoS as rclpy profiles, built from the table (docs/interfaces.md).
 
-Every node takes its names and QoS from here, so publisher and subscriber always match. Per
-robot topics are relative names, resolved in the robot's namespace ``/mona_<i>``.
+Every node takes its names and QoS from here, so publisher and subscriber always match. The
+numbers live in :data:`mona_controller.topics.TOPICS`; this module only turns them into
+:class:`QoSProfile` objects (the named constants below are those profiles, kept so node code
+reads ``qos.POSES_QOS``). Per robot topics are relative names, resolved in the robot's
+namespace ``/mona_<i>``.
 """
 
 from __future__ import annotations
+
+import importlib
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 # The names are the contract's; re-exported so a node needs one import for name and QoS.
 from mona_controller.contract import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
-                                      CUE_MAP, EPISODE, GROUND, MARKERS, POSES, PROXIMITY,
-                                      RECORDERS, STATUS, WORLD_FRAME, base_frame,
-                                      robot_namespace, robot_topic)
+                                      CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX, POSES,
+                                      PROXIMITY, RECORDERS, ROBOT_STATES, STATUS, TOPICS,
+                                      WORLD_FRAME, QoS, base_frame, metric_topic,
+                                      robot_namespace, robot_topic, topic_of)
 
 
-def _profile(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
+def profile(qos: QoS) -> QoSProfile:
+    """The rclpy profile of a contract QoS."""
     return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+        history=HistoryPolicy.KEEP_LAST, depth=qos.depth,
+        reliability=ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if qos.latched else DurabilityPolicy.VOLATILE)
 
 
-#: ground, proximity and cmd_vel: every reading and every answer must arrive (lockstep).
-SENSOR_QOS = _profile(5)
-COMMAND_QOS = _profile(5)
-#: The cleaning actuator is a state: a late joiner gets the latest one.
-CLEANER_QOS = _profile(1, latched=True)
-#: /clock as the ROS clock QoS (rclpy's time source subscribes best effort, depth 1).
-CLOCK_QOS = _profile(1, reliable=False)
-#: Poses and cleaning events feed the metrics, which must see every one: a deep history lets
-#: a metrics node that falls behind on a loaded machine catch up (about 30 s of steps)
-#: instead of losing the pose of a sample time.
-POSES_QOS = _profile(1000)
-CLEANING_QOS = _profile(1000)
-#: The cue map, its grid, /world/status and /episode: the latest value, kept for late joiners.
-LATCHED_QOS = _profile(1, latched=True)
-MAP_QOS = LATCHED_QOS
-STATUS_QOS = LATCHED_QOS
-EPISODE_QOS = LATCHED_QOS
-MARKERS_QOS = _profile(1)
-#: Recorder reports: each recorder's latest kept for late joiners; several recorders (and a
-#: burst of progress reports) must not push a "recording" out of a subscriber's history.
-RECORDERS_QOS = _profile(10, latched=True)
+#: Every entry's profile, by the table's name (relative per robot, '/metrics/' per metric).
+PROFILES: dict[str, QoSProfile] = {name: profile(topic.qos) for name, topic in TOPICS.items()}
+
+
+def profile_for(name: str) -> QoSProfile | None:
+    """The profile of an absolute topic name (``/mona_3/ground``, ``/metrics/coherency``), or
+    None for a topic outside the contract."""
+    topic = topic_of(name)
+    return None if topic is None else PROFILES[topic.name]
+
+
+def message_class(type_name: str) -> type:
+    """The rclpy message class of a type name such as 'std_msgs/msg/String'.
+
+    Raises:
+        ImportError: the package is not installed.
+        AttributeError: it has no such message.
+        ValueError: not a 'package/msg/Name'.
+    """
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
+
+
+SENSOR_QOS = PROFILES[GROUND]  #: ground and proximity
+COMMAND_QOS = PROFILES[CMD_VEL]
+CLEANER_QOS = PROFILES[CLEANER]
+CLOCK_QOS = PROFILES[CLOCK]
+POSES_QOS = PROFILES[POSES]
+CLEANING_QOS = PROFILES[CLEANING]
+MAP_QOS = PROFILES[CUE_MAP]  #: the cue map and its grid
+STATUS_QOS = PROFILES[STATUS]
+EPISODE_QOS = PROFILES[EPISODE]
+MARKERS_QOS = PROFILES[MARKERS]
+RECORDERS_QOS = PROFILES[RECORDERS]
+METRICS_QOS = PROFILES[METRICS_PREFIX]  #: every /metrics/<name>
 
 #: No default QoS event handlers for the per-robot topics. rclpy gives every publisher and
 #: subscription two (incompatible QoS, incompatible type) and the executor visits each of

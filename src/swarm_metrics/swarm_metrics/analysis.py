@@ -21,15 +21,13 @@ from mona_controller.contract import Announcement, ContractError
 from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
-from swarm_metrics.metrics import COLUMNS, MetricsParams, sample_field
+from swarm_metrics.metrics import MetricsParams, metric_names, sample_field
 from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.field import CueField
 
 #: Later than any sim time.
 NEVER = 2**63 - 1
-#: The metrics published on /metrics/<name> and recorded in the bag (metrics.csv less 't').
-METRIC_NAMES = COLUMNS[1:]
 
 
 class AnnouncementError(ValueError):
@@ -303,8 +301,9 @@ def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]
     """(online samples, max |online - offline| over the samples both have, (log time, metric)
     of the first sample that differs)."""
     offline = dict(timed)
+    names = metric_names()
     worst, matched, first = None, 0, None
-    for name in METRIC_NAMES:
+    for name in names:
         for t, value in bag.metrics.get(name, []):
             if t in offline:
                 mine = offline[t][name]
@@ -317,6 +316,6 @@ def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]
                 matched += 1
                 if difference and (first is None or t < first[0]):
                     first = (t, name)
-    online = max((len(bag.metrics.get(name, [])) for name in METRIC_NAMES), default=0)
+    online = max((len(bag.metrics.get(name, [])) for name in names), default=0)
     return online, (worst if matched else None), first
 

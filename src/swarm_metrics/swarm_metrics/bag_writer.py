@@ -31,6 +31,8 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, W
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import Stores, get_typestore
 
+from mona_controller.topics import QoS, Topic
+
 #: The message types every bag is written (and read) with.
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 #: Default sim time a chunk stays open: the most a SIGKILL can lose (s).
@@ -52,6 +54,16 @@ def offered_qos(depth: int, *, reliable: bool = True, latched: bool = False) -> 
         depth=depth,
         reliability=QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
         durability=QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE)
+
+
+def offered(qos: QoS) -> Qos:
+    """:func:`offered_qos` of a contract QoS (:class:`mona_controller.topics.QoS`)."""
+    return offered_qos(qos.depth, reliable=qos.reliable, latched=qos.latched)
+
+
+def bag_topics(topics: dict[str, Topic]) -> dict[str, tuple[str, Qos]]:
+    """Topic -> (type, offered QoS) of contract entries, as a bag records them."""
+    return {name: (topic.type, offered(topic.qos)) for name, topic in topics.items()}
 
 
 class _CheckedMcapWriter(McapWriter):

@@ -24,8 +24,9 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-from swarm_metrics.analysis import METRIC_NAMES, Recomputation, episode_setup, recompute
+from swarm_metrics.analysis import Recomputation, episode_setup, recompute
 from swarm_metrics.bag_reader import STATUS, BagError, EpisodeBag
+from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.
 CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics')
@@ -134,18 +135,19 @@ def check_online(metrics: Mapping[str, Sequence[tuple[int, float]]], start_ns: i
                  duration: float, sample_period: float) -> list[Finding]:
     """The ``samples`` check on the online /metrics/<name> samples of a bag (if it has any).
 
-    A sample counts when every metric has it, at its boundary's log time
-    (``start_ns + k * sample_period``).
+    A sample counts when every metric of the table (:data:`swarm_metrics.metrics.METRICS`)
+    has it, at its boundary's log time (``start_ns + k * sample_period``).
 
     Args:
         metrics: name -> [(log time ns, value)], as :class:`EpisodeBag` holds them.
         start_ns: sim time of the episode's t = 0.
     """
-    if not any(metrics.get(name) for name in METRIC_NAMES):
+    names = metric_names()
+    if not any(metrics.get(name) for name in names):
         return []  # no online metrics recorded: nothing to check
     sample_ns = round(sample_period * 1e9)
     present = None
-    for name in METRIC_NAMES:
+    for name in names:
         indices = {(t - start_ns) // sample_ns for t, _ in metrics.get(name, [])
                    if t >= start_ns and (t - start_ns) % sample_ns == 0}
         present = indices if present is None else present & indices

@@ -1,5 +1,13 @@
 """The study's metrics (method.md), computed from a cue raster and robot positions.
 
+Each metric is a declared entry, :class:`Metric` (name, unit, doc, the function that computes
+it from one sample's inputs, its plot label), in one table, :data:`METRICS`. Everything else
+is derived from that table: the metrics.csv columns (in table order after ``t``), the
+``/metrics/<name>`` topics the metrics node publishes and every bag records, the completeness
+checks of the online samples, the live view's channels, the video's plots (entries with a
+label), the names a claim may test and the study's figures beyond the paper's. So a metric is
+added in one place: :func:`register` (docs/bags.md, "Adding a metric", says where it must run).
+
 Pure functions, so the embedded runner, the metrics node and bag analysis compute every number
 the same way.
 """
@@ -8,7 +16,11 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib
 import math
+import os
+import re
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numba
@@ -19,7 +31,8 @@ from mona_controller.schema import param, validate
 if TYPE_CHECKING:  # the field is the world's; metrics only read it
     from swarm_world.field import CueField
 
-#: Column order of metrics.csv and of the metrics topics.
+#: The paper's columns of metrics.csv: t and the four built-in metrics, always first and in
+#: this order (registered metrics follow them: :func:`metric_columns`).
 COLUMNS = ('t', 'mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
 #: With more than one source, metrics.csv adds two columns per source (its name filled in):
 #: the share of the initial cue left in the cells nearest to it, and the fraction of robots
@@ -30,6 +43,11 @@ SOURCE_COLUMNS = ('mean_cue_fraction_{}', 'ratio_near_{}')
 #: swarms use a compiled loop that never holds the N^2 / 2 distances (10,000 robots: 50
 #: million pairs, 1.2 GB as arrays), equal to the all-pairs mean to about 1e-13 (relative).
 ALL_PAIRS_MAX = 200
+#: Modules (comma-separated) imported when this module is, so that the metrics they register
+#: are in the table of every process of a run: spawned study workers, the metrics node.
+PLUGINS_VARIABLE = 'MONA_SWARM_METRICS'
+#: What a metric's name may be: a ROS topic name token (it becomes /metrics/<name>).
+NAME_PATTERN = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -173,20 +191,119 @@ def _row_distance_sums(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # pragma: n
     return rows
 
 
+@dataclasses.dataclass(slots=True)  # not frozen: built once a sample, and frozen costs 4x
+class Sample:
+    """What one metrics sample is computed from: a metric's ``compute`` takes this (and must
+    not change it: the metrics after it read the same inputs)."""
+
+    t: float  #: s since the episode's start
+    cue: np.ndarray  #: the cue raster [rows, cols] (row i at y = (i + 0.5) * cell_size)
+    initial_mean: float  #: the arena mean cue at t = 0
+    positions: np.ndarray  #: [N, 2] robot positions (m, world frame)
+    sources: np.ndarray  #: [S, 2] where the sources are at t (m)
+    params: MetricsParams
+    cell_size: float  #: m per raster cell (0 when the caller does not know it)
+    mean_cue: float  #: the arena mean cue, computed once (two built-in metrics use it)
+
+
+@dataclasses.dataclass(frozen=True)
+class Metric:
+    """One metric: a column of metrics.csv and the topic ``/metrics/<name>``.
+
+    ``compute`` must be a pure function of the sample (the embedded runner, the metrics
+    node's replica and ``mona-swarm analyze`` each call it on their own inputs and must get
+    the same number, compared with ``==``), cheap (it runs once per simulated second) and
+    return a float (NaN where undefined).
+    """
+
+    name: str  #: column and topic name (:data:`NAME_PATTERN`)
+    unit: str  #: '' for a fraction in [0, 1] (plots span 0..1.05), else the unit, e.g. 'm'
+    doc: str  #: one line
+    compute: Callable[[Sample], float]
+    label: str | None = None  #: the axis label where it is plotted (None: not plotted)
+
+
+def _fraction(sample: Sample) -> float:
+    return sample.mean_cue / sample.initial_mean if sample.initial_mean > 0 else float('nan')
+
+
+#: The metrics, in column order: the paper's four, then any registered ones.
+METRICS: dict[str, Metric] = {metric.name: metric for metric in (
+    Metric('mean_cue', 'cue units (0..255)', 'arena mean cue',
+           lambda sample: sample.mean_cue),
+    Metric('mean_cue_fraction', '', 'the arena mean cue over its initial value', _fraction,
+           'mean cue / initial'),
+    Metric('ratio_near_source', '',
+           'fraction of robots within source_radius of the nearest source',
+           lambda sample: ratio_near_source(sample.positions, sample.sources,
+                                            sample.params.source_radius),
+           'ratio near source'),
+    Metric('coherency', 'm', 'mean pairwise distance between the robots',
+           lambda sample: coherency(sample.positions), 'coherency (m)'),
+)}
+#: The paper's metrics (built in: never unregistered; figs. 4-6 draw them).
+PAPER_METRICS = tuple(METRICS)
+
+
+def register(metric: Metric) -> Metric:
+    """Add ``metric`` to :data:`METRICS` (after those there).
+
+    Takes effect in this process for everything computed or recorded from then on; another
+    process (a spawned study worker, the metrics node) has it only if it registers it too:
+    name the registering module in the environment variable :data:`PLUGINS_VARIABLE`.
+
+    Returns:
+        ``metric`` (so a module can keep it).
+
+    Raises:
+        ValueError: a bad name (one a per-source column could have included), or another
+            metric of that name is registered.
+    """
+    if not NAME_PATTERN.fullmatch(metric.name) or metric.name == 't' or any(
+            metric.name.startswith(pattern.format('')) for pattern in SOURCE_COLUMNS):
+        raise ValueError(f'a metric name must match {NAME_PATTERN.pattern}, and be neither t '
+                         f'nor a per-source column name, not {metric.name!r}')
+    known = METRICS.get(metric.name)
+    if known is not None and known != metric:
+        raise ValueError(f'a metric named {metric.name!r} is registered already')
+    METRICS[metric.name] = metric
+    return metric
+
+
+def unregister(name: str) -> None:
+    """Remove a registered metric (not one of :data:`PAPER_METRICS`; unknown: nothing)."""
+    if name in PAPER_METRICS:
+        raise ValueError(f"{name} is one of the paper's metrics and cannot be removed")
+    METRICS.pop(name, None)
+
+
+def metric_names() -> tuple[str, ...]:
+    """The metrics now in the table, in column order (metrics.csv less 't')."""
+    return tuple(METRICS)
+
+
+def metric_columns() -> tuple[str, ...]:
+    """The metrics.csv columns of a one-source episode: 't', then :func:`metric_names`."""
+    return ('t', *METRICS)
+
+
+def plotted() -> tuple[tuple[str, str], ...]:
+    """(name, axis label) of each metric that is plotted, in table order."""
+    return tuple((metric.name, metric.label) for metric in METRICS.values()
+                 if metric.label is not None)
+
+
 def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray,
            sources: np.ndarray, params: MetricsParams, names: tuple[str, ...] = (),
            cell_size: float = 0.0) -> dict[str, float]:
-    """One metrics row: the columns of :data:`COLUMNS`, then with more than one source in
-    ``names`` (and their places ``sources`` [S, 2] now) its :data:`SOURCE_COLUMNS`."""
-    level = mean_cue(cue)
+    """One metrics row: 't' and each metric of :data:`METRICS`, then with more than one
+    source in ``names`` (and their places ``sources`` [S, 2] now) its :data:`SOURCE_COLUMNS`."""
     sources = np.asarray(sources, dtype=np.float64).reshape(-1, 2)
-    row = {
-        't': t,
-        'mean_cue': level,
-        'mean_cue_fraction': level / initial_mean if initial_mean > 0 else float('nan'),
-        'ratio_near_source': ratio_near_source(positions, sources, params.source_radius),
-        'coherency': coherency(positions),
-    }
+    inputs = Sample(t, cue, initial_mean, positions, sources, params, cell_size,
+                    mean_cue(cue))
+    row = {'t': t}
+    for name, metric in METRICS.items():
+        row[name] = float(metric.compute(inputs))
     if len(names) > 1:
         row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
                                   params.source_radius))
@@ -196,12 +313,12 @@ def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray
 def source_names(columns: list[str] | tuple[str, ...]) -> list[str]:
     """The sources named by per-source columns among ``columns`` (in column order)."""
     prefix = SOURCE_COLUMNS[0].format('')
-    return [c[len(prefix):] for c in columns if c.startswith(prefix) and c not in COLUMNS]
+    return [c[len(prefix):] for c in columns if c.startswith(prefix) and c not in METRICS]
 
 
 def is_source_column(column: str) -> bool:
     """Whether ``column`` is one of the per-source columns (:data:`SOURCE_COLUMNS`)."""
-    return column not in COLUMNS and any(
+    return column != 't' and column not in METRICS and any(
         column.startswith(pattern.format('')) for pattern in SOURCE_COLUMNS)
 
 
@@ -216,5 +333,20 @@ def sample_field(t: float, field: CueField, positions: np.ndarray,
 def columns(names: tuple[str, ...]) -> tuple[str, ...]:
     """The metrics.csv columns of an episode whose sources are ``names``."""
     if len(names) < 2:
-        return COLUMNS
-    return COLUMNS + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)
+        return metric_columns()
+    return metric_columns() + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)
+
+
+def _load_plugins() -> None:
+    """Import the modules :data:`PLUGINS_VARIABLE` names (each registers its metrics)."""
+    for module in filter(None, (m.strip() for m in
+                                os.environ.get(PLUGINS_VARIABLE, '').split(','))):
+        try:
+            importlib.import_module(module)
+        except ImportError as error:
+            raise ImportError(f'{PLUGINS_VARIABLE} names {module!r}, which cannot be imported '
+                              f'({error})') from error
+
+
+# Last: a plugin imports this module's names, which all exist by now.
+_load_plugins()

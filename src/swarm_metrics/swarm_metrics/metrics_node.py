@@ -25,31 +25,35 @@ import sys
 import time
 from pathlib import Path
 
+from collections.abc import Callable
+
 import rclpy
-from geometry_msgs.msg import PoseArray, TwistStamped
-from nav_msgs.msg import OccupancyGrid
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
-from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, Float64, String
-from visualization_msgs.msg import MarkerArray
+from std_msgs.msg import Float64, String
 
 from mona_controller import qos
 from mona_controller.contract import RecorderReport, RecorderState
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
-from swarm_metrics.analysis import METRIC_NAMES
+from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
 from swarm_metrics.bag_reader import BagError
-from swarm_metrics.bag_writer import CHUNK_PERIOD, offered_qos
+from swarm_metrics.bag_writer import CHUNK_PERIOD
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder, Row
 
 EXIT_WORLD_LOST = 3
-METRICS_QOS = QoSProfile(depth=10)
+#: The topics of the other nodes that a default bag records (the node publishes /metrics/*
+#: itself, and no node publishes /world/robot_states).
+RECORDED = tuple(name for name, topic in TOPICS.items()
+                 if topic.recorded and topic.publisher in (WORLD, SUPERVISOR))
+#: What ``record_all`` adds: every other topic of the world and the controllers (per robot
+#: ones in each announced robot's namespace).
+RECORDED_ALL = tuple(name for name, topic in TOPICS.items()
+                     if not topic.recorded and topic.publisher in (WORLD, CONTROLLER))
 #: Wall seconds between looks at the world's health and the episode's end.
 TICK = 0.1
 
@@ -78,18 +82,6 @@ class MetricsNodeParams:
         validate(self)
 
 
-def type_name(msg_class: type) -> str:
-    """'pkg/msg/Name' of an rclpy message class (the name rosbags and rosbag2 use)."""
-    return f'{msg_class.__module__.split(".")[0]}/msg/{msg_class.__name__}'
-
-
-def bag_qos(profile: QoSProfile):
-    """The rosbags form of an rclpy QoS profile (recorded as the topic's offered QoS)."""
-    return offered_qos(profile.depth,
-                       reliable=profile.reliability == ReliabilityPolicy.RELIABLE,
-                       latched=profile.durability == DurabilityPolicy.TRANSIENT_LOCAL)
-
-
 class MetricsNode(Node):
     """Computes the metrics online and records each episode's bag."""
 
@@ -97,27 +89,28 @@ class MetricsNode(Node):
         super().__init__('metrics', **kwargs)
         self.options = declare_section(self, MetricsNodeParams)
         self.done = Future()  #: set to the exit status when the node should stop
-        self.topics = {f'/metrics/{name}': (type_name(Float64), bag_qos(METRICS_QOS))
-                       for name in METRIC_NAMES}  # everything the bag may hold
-        self.metric_pubs = {name: self.create_publisher(Float64, f'/metrics/{name}',
-                                                        METRICS_QOS) for name in METRIC_NAMES}
-        self.report_pub = self.create_publisher(String, qos.RECORDERS, qos.RECORDERS_QOS)
-        self._subscribe(String, qos.EPISODE, qos.EPISODE_QOS, self._on_episode)
-        self._subscribe(String, qos.STATUS, qos.STATUS_QOS, self._on_status)
-        self.world_subscriptions = [
-            self._subscribe(PoseArray, qos.POSES, qos.POSES_QOS, self._on_world),
-            self._subscribe(PoseArray, qos.CLEANING, qos.CLEANING_QOS, self._on_world)]
-        self._subscribe(Image, qos.CUE_MAP, qos.MAP_QOS, self._on_world)
         options = self.options
-        self.recorder = Recorder(Path(options.output_dir), self.topics,
-                                 chunk_period=options.chunk_period,
+        self.recorder = Recorder(Path(options.output_dir), chunk_period=options.chunk_period,
                                  cue_map_period=options.cue_map_period,
                                  clock_period=options.clock_period,
                                  record_all=options.record_all)
-        self._subscribe(ClockMsg, qos.CLOCK, qos.CLOCK_QOS, self.recorder.periodic)
-        if options.record_all:
-            self._subscribe(OccupancyGrid, qos.CUE_GRID, qos.MAP_QOS, self.recorder.stamped)
-            self._subscribe(MarkerArray, qos.MARKERS, qos.MARKERS_QOS, self._on_unstamped)
+        self.metric_pubs = {name: self.create_publisher(Float64, qos.metric_topic(name),
+                                                        qos.METRICS_QOS)
+                            for name in metric_names()}
+        self.report_pub = self.create_publisher(String, qos.RECORDERS, qos.RECORDERS_QOS)
+        #: What the node does with each topic it records (:data:`RECORDED`, in subscription
+        #: order; then :data:`RECORDED_ALL`'s with record_all).
+        self.handlers: dict[str, Callable[[str, bytes], object]] = {
+            qos.EPISODE: self._on_episode, qos.STATUS: self._on_status,
+            qos.POSES: self._on_world, qos.CLEANING: self._on_world,
+            qos.CUE_MAP: self._on_world, qos.CLOCK: self.recorder.periodic,
+            qos.CUE_GRID: self.recorder.stamped, qos.MARKERS: self._on_unstamped,
+            qos.GROUND: self.recorder.stamped, qos.PROXIMITY: self.recorder.stamped,
+            qos.CMD_VEL: self.recorder.stamped, qos.CLEANER: self._on_unstamped}
+        subscriptions = {topic: self._subscribe(topic) for topic in self.handlers
+                         if topic in RECORDED or (options.record_all and topic in RECORDED_ALL
+                                                  and not TOPICS[topic].per_robot)}
+        self.world_subscriptions = [subscriptions[qos.POSES], subscriptions[qos.CLEANING]]
         self._robot_subscriptions: set[int] = set()
         self._confirmed = False  # the open episode's "recording" report is out
         self._closing_at: float | None = None  # wall time to give up on the episode's rest
@@ -128,32 +121,30 @@ class MetricsNode(Node):
         self.get_logger().info(f'recording episodes into {options.output_dir} '
                                f'(record_all={options.record_all})')
 
-    def _subscribe(self, msg_class: type, topic: str, profile: QoSProfile, callback):
-        """A raw subscription (``callback(topic, data)``) that also remembers how to record
-        the topic."""
-        self.topics[topic] = (type_name(msg_class), bag_qos(profile))
-        return self.create_subscription(msg_class, topic,
-                                        lambda data, t=topic: callback(t, data), profile,
-                                        raw=True)
+    def _subscribe(self, name: str, robot_id: int | None = None):
+        """A raw subscription to a topic of the table (per robot: in robot ``robot_id``'s
+        namespace), with its type and QoS, calling its handler with (topic, data)."""
+        entry, callback = TOPICS[name], self.handlers[name]
+        topic = name if robot_id is None else qos.robot_topic(robot_id, name)
+        return self.create_subscription(qos.message_class(entry.type), topic,
+                                        lambda data, t=topic: callback(t, data),
+                                        qos.PROFILES[name], raw=True)
 
     def _subscribe_robots(self, population: int) -> None:
         """record_all: every robot's sensor and command topics."""
         for i in set(range(population)) - self._robot_subscriptions:
             self._robot_subscriptions.add(i)
-            for msg_class, name, profile, callback in (
-                    (Image, qos.GROUND, qos.SENSOR_QOS, self.recorder.stamped),
-                    (LaserScan, qos.PROXIMITY, qos.SENSOR_QOS, self.recorder.stamped),
-                    (TwistStamped, qos.CMD_VEL, qos.COMMAND_QOS, self.recorder.stamped),
-                    (Bool, qos.CLEANER, qos.CLEANER_QOS, self._on_unstamped)):
-                self._subscribe(msg_class, qos.robot_topic(i, name), profile, callback)
+            for name in RECORDED_ALL:
+                if TOPICS[name].per_robot:
+                    self._subscribe(name, i)
 
     # --- what the node says ------------------------------------------------------------
 
     def _publish(self, rows: list[Row]) -> None:
         """Publish metric rows; a new sample also tells the world how far the record is."""
         for _, row in rows:
-            for name in METRIC_NAMES:
-                self.metric_pubs[name].publish(Float64(data=float(row[name])))
+            for name, publisher in self.metric_pubs.items():
+                publisher.publish(Float64(data=float(row[name])))
         if rows and self._confirmed:
             self._report(RecorderState.RECORDING)
 

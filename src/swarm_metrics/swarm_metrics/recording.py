@@ -18,17 +18,15 @@ import struct
 from pathlib import Path
 from typing import NamedTuple
 
-from rosbags.interfaces import Qos
-
-from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
-                                      STATUS, ContractError, WorldState, WorldStatus)
-from swarm_metrics.analysis import (METRIC_NAMES, NEVER, AnnouncementError, EpisodeSetup,
-                                    MetricsReplica)
+from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, POSES, STATUS,
+                                      TOPICS, ContractError, WorldState, WorldStatus,
+                                      metric_topic, topic_of)
+from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
-from swarm_metrics.bag_writer import EpisodeBagWriter
+from swarm_metrics.bag_writer import EpisodeBagWriter, offered
+from swarm_metrics.metrics import metric_names
 
-STRING, POSE_ARRAY, IMAGE, FLOAT64 = ('std_msgs/msg/String', 'geometry_msgs/msg/PoseArray',
-                                      'sensor_msgs/msg/Image', 'std_msgs/msg/Float64')
+STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type
 #: Messages of an episode not yet announced that are kept for its bag (see Recorder.route).
 EARLY_LIMIT = 20_000
 #: A metric row as the node publishes it: (log time ns, {metric: value}).
@@ -57,6 +55,7 @@ class Episode:
     setup: EpisodeSetup
     bag: EpisodeBagWriter
     replica: MetricsReplica
+    metrics: tuple[str, ...]  #: the metrics recorded (the table's when the episode opened)
     samples: int = 0  #: metric samples taken (t = 0 included)
     cleaning: int = 0  #: /world/cleaning messages recorded
     last_pose_ns: int = 0
@@ -125,21 +124,22 @@ class Announced(NamedTuple):
 class Recorder:
     """One bag per announced episode, with the metrics computed online.
 
+    Each topic is recorded with its type and offered QoS from the contract's table
+    (:data:`mona_controller.topics.TOPICS`), each metric of the metrics table on
+    ``/metrics/<name>``.
+
     Args:
         output_dir: episode k's bag goes to ``<output_dir>/episode_<k>/bag`` (``bag_1``, ...
             if that exists: a rerun never overwrites a bag).
-        topics: topic -> (type name, offered QoS) of everything that may be recorded.
         chunk_period: sim seconds per bag chunk.
         cue_map_period: record /world/cue_map at most this often (sim s; 0: every map).
         clock_period: record /clock at most this often (sim s; 0: every tick).
         record_all: record every message routed here, not just the sampled or periodic ones.
     """
 
-    def __init__(self, output_dir: Path, topics: dict[str, tuple[str, Qos]], *,
-                 chunk_period: float, cue_map_period: float, clock_period: float,
-                 record_all: bool = False) -> None:
+    def __init__(self, output_dir: Path, *, chunk_period: float, cue_map_period: float,
+                 clock_period: float, record_all: bool = False) -> None:
         self.output_dir = output_dir
-        self.topics = topics
         self.chunk_period = chunk_period
         self.periods_ns = {CUE_MAP: round(cue_map_period * 1e9),
                            CLOCK: round(clock_period * 1e9)}
@@ -186,12 +186,13 @@ class Recorder:
         while path.exists():
             path, n = folder / f'bag_{n}', n + 1
         bag = EpisodeBagWriter(path, chunk_period=self.chunk_period)
-        self.episode = Episode(setup, bag, MetricsReplica(setup), last_pose_ns=setup.start_ns)
+        metrics = metric_names()
+        self.episode = Episode(setup, bag, MetricsReplica(setup), metrics,
+                               last_pose_ns=setup.start_ns)
         # Samples wait until the world's status says every cleaning event up to them is here.
         self.episode.replica.confirmed_ns = setup.start_ns
         self._last_recorded.clear()
-        for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP,
-                      *(METRICS_PREFIX + name for name in METRIC_NAMES)):
+        for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP, *map(metric_topic, metrics)):
             self._add_topic(topic)
         bag.describe(document)
         bag.write(EPISODE, setup.start_ns, data)
@@ -349,8 +350,8 @@ class Recorder:
     def _samples(self, rows: list[Row]) -> list[Row]:
         """Record metric rows in the bag; return them."""
         for log_ns, row in rows:
-            for name in METRIC_NAMES:
-                self.write(METRICS_PREFIX + name, log_ns, float64_cdr(float(row[name])))
+            for name in self.episode.metrics:
+                self.write(metric_topic(name), log_ns, float64_cdr(float(row[name])))
             self.episode.samples += 1
         return rows
 
@@ -364,5 +365,7 @@ class Recorder:
     def _add_topic(self, topic: str) -> None:
         bag = self.episode.bag
         if not bag.has_topic(topic):
-            msgtype, profile = self.topics[topic]
-            bag.add_topic(topic, msgtype, [profile])
+            entry = topic_of(topic)
+            if entry is None:
+                raise BagError(f'{topic} is not a topic of the contract (docs/interfaces.md)')
+            bag.add_topic(topic, entry.type, [offered(entry.qos)])

@@ -29,7 +29,7 @@ from typing import Any
 import yaml
 
 from mona_controller.schema import ParameterError
-from swarm_metrics.metrics import COLUMNS
+from swarm_metrics.metrics import metric_columns
 from swarm_supervisor.analysis import anova as anova_tables
 
 HOLDS = 'holds'
@@ -39,7 +39,6 @@ STATUSES = (HOLDS, FAILS, NOT_APPLICABLE)
 #: The shipped claims, package data of swarm_supervisor.analysis.
 PAPER_CLAIMS = 'paper_claims.yaml'
 CLAIM_FIELDS = ('id', 'where', 'paper', 'check')
-METRICS = tuple(COLUMNS)
 SPEED_TOLERANCE = 1e-9  #: m/s: speeds in the table and in a claim match within this
 
 
@@ -84,8 +83,10 @@ class ClaimResult:
 # ValueError on a bad value, so every claim is checked when it is loaded, not when evaluated.
 
 def _metric(value: Any) -> str:
-    if value not in METRICS:
-        raise ValueError(f'must be one of {", ".join(METRICS)}, not {value!r}')
+    """A metrics.csv column: t or a metric of the table (swarm_metrics.metrics.METRICS)."""
+    allowed = metric_columns()
+    if value not in allowed:
+        raise ValueError(f'must be one of {", ".join(allowed)}, not {value!r}')
     return value
 
 
@@ -170,7 +171,7 @@ def _fraction(value: Any) -> float:
 #: Parameters each check shares: which curve, where, smoothed how.
 _CURVE = {'metric': (_metric, None), 'populations': (_populations, ()),
           'speeds': (_speeds, ()), 'smooth': (_non_negative, 0.0)}
-_ANOVA = {'response': (_choice('mean_cue', 'coherency', *METRICS), None),
+_ANOVA = {'response': (_metric, None),
           'variant': (_choice(*anova_tables.VARIANTS), anova_tables.DEFAULT_VARIANT)}
 
 #: Each check kind's parameters: name -> (converter, default; None = required).

@@ -1,4 +1,6 @@
-"""The paper's figures 3-6 from the study's tidy table (and, for fig. 3, cue-map snapshots).
+"""The paper's figures 3-6 from the study's tidy table (and, for fig. 3, cue-map snapshots),
+and one figure per metric beyond the paper's (:func:`fig_metric`, for each metric of
+``swarm_metrics.metrics.METRICS`` with a plot label that the table has).
 
 A design with extra factors (``study.factors``) gets one panel per factor level in figures
 4-6 (:func:`variants`); the paper's layout is kept otherwise.
@@ -20,7 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from swarm_metrics.metrics import SOURCE_COLUMNS, source_names  # noqa: E402
+from swarm_metrics.metrics import (METRICS, PAPER_METRICS, SOURCE_COLUMNS,  # noqa: E402
+                                   source_names)
 from swarm_supervisor.outputs.pictures import draw_cue_map  # noqa: E402
 from swarm_supervisor.study.table import design_factors  # noqa: E402
 
@@ -30,6 +33,8 @@ FIG5 = 'fig5_ratio_near_source.png'
 FIG6 = 'fig6_coherency.png'
 #: Drawn when the episodes have several sources (docs/model.md "Leaks beyond the paper").
 FIG_SOURCES = 'fig_sources.png'
+#: The figure of a metric beyond the paper's (its name filled in).
+FIG_METRIC = 'fig_metric_{}.png'
 
 #: The paper's levels: fig. 3 at N = 30, figs. 5 and 6 at N = 10, 30, 50, both at 8 cm/s.
 PAPER_SPEED = 0.08
@@ -160,7 +165,7 @@ def variants(table: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     design), a label names only that factor ('mona.ir_range = 0.05', or 'as the parameter
     file'); otherwise it names every factor.
     """
-    factors = design_factors(table)
+    factors = [f for f in design_factors(table) if f not in METRICS]  # a metric is no factor
     if not factors:
         return [('', table)]
     groups = [(values if isinstance(values, tuple) else (values,), rows)
@@ -274,6 +279,58 @@ def fig_sources(table: pd.DataFrame, path: str | Path) -> str:
     axes[0].legend(title='robots', fontsize='small')
     fig.suptitle('Cue near each source: the cells nearer to it than to any other, where the '
                  f'sources are (median over {seeds_label(table)})')
+    _finish(fig, path)
+    return ''
+
+
+def extra_metrics(table: pd.DataFrame) -> list[str]:
+    """The metrics beyond the paper's that have a plot label and a column in ``table``, in
+    table order: each gets a :func:`fig_metric`."""
+    return [name for name, metric in METRICS.items() if name not in PAPER_METRICS
+            and metric.label is not None and name in table.columns]
+
+
+def fig_metric(table: pd.DataFrame, path: str | Path, name: str) -> str:
+    """A metric beyond the paper's vs time: one curve per N (median over seeds, band: min to
+    max), one panel per speed (and per level of the design's extra factors, :func:`variants`),
+    the y axis labelled by the metric's entry. Returns a note ('' when there is nothing to
+    add).
+
+    Raises:
+        FigureSkipped: ``table`` has no column ``name``.
+    """
+    if name not in table.columns:
+        raise FigureSkipped(f'the table has no column {name}')
+    metric = METRICS[name]
+    speeds = sorted(table['speed'].unique(), reverse=True)
+    facets = variants(table)
+    colours = _colours(table['population'].unique())
+    panels = [(label, rows, speed) for label, rows in facets for speed in speeds]
+    fig, axes = _grid(len(panels), len(speeds) * (2 if len(facets) > 1 else 1), (5.2, 3.6),
+                      sharey=True)
+    for k, (ax, (label, rows, speed)) in enumerate(zip(axes, panels)):
+        stats = over_seeds(rows, name)
+        for n in sorted(stats['population'].unique(), reverse=True):
+            curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
+            ax.fill_between(curve['t'], curve['min'], curve['max'], color=colours[n],
+                            alpha=0.25, linewidth=0)
+            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
+                    label=f'N = {n}')
+        letter = f'({chr(ord("a") + k)}) ' if k < 26 else ''
+        ax.set_title(f'{letter}v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
+                     fontsize='small')
+        ax.set_xlabel('time (s)')
+        ax.set_xlim(0, table['t'].max())
+        ax.grid(alpha=0.3)
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel(metric.label or name)
+    if not metric.unit:
+        for ax in axes:
+            ax.set_ylim(0, 1.02)
+    else:
+        _from_zero(axes)
+    axes[0].legend(title='robots', fontsize='small')
+    fig.suptitle(f'{metric.doc} (median and min-max over {seeds_label(table)})')
     _finish(fig, path)
     return ''
 

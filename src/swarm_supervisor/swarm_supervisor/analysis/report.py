@@ -27,7 +27,7 @@ from swarm_supervisor.analysis import checks
 from swarm_supervisor.analysis import claims as claim_checks
 from swarm_supervisor.analysis import figures
 from swarm_metrics.completeness import Finding
-from swarm_metrics.metrics import source_names
+from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
 from swarm_supervisor.analysis import sensitivity
 from swarm_supervisor.analysis.reading import (ANOVA_FILES, cleaning_summary, reading,
@@ -99,7 +99,9 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
 def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                  records: Sequence[dict[str, Any]]) -> list[Figure]:
     """Figures 3-6 into ``out`` (and the per-source figure when the episodes have several
-    sources); fig. 3 is skipped (with a note) when no episode kept maps."""
+    sources, and one per metric beyond the paper's that the table has,
+    :func:`~swarm_supervisor.analysis.figures.extra_metrics`); fig. 3 is skipped (with a note)
+    when no episode kept maps."""
     initial = table['mean_cue'] / table['mean_cue_fraction']
     initial_mean = float(np.nanmedian(initial)) if initial.notna().any() else 0.0
     radius = records[0].get('parameters', {}).get('metrics', {}).get('source_radius', 0.7)
@@ -119,6 +121,14 @@ def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                             figures.fig_sources(table, out / figures.FIG_SOURCES)))
     else:  # never leave an earlier design's figure beside these results
         (out / figures.FIG_SOURCES).unlink(missing_ok=True)
+    extra = figures.extra_metrics(table)
+    for name in extra:
+        file = figures.FIG_METRIC.format(name)
+        drawn.append(Figure(f'{name}: {METRICS[name].doc}', file,
+                            figures.fig_metric(table, out / file, name)))
+    for stale in out.glob(figures.FIG_METRIC.format('*')):  # a metric no longer drawn
+        if stale.name not in {figures.FIG_METRIC.format(name) for name in extra}:
+            stale.unlink()
     return drawn
 
 

@@ -27,28 +27,20 @@ import foxglove
 from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
-from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS,
-                                      METRICS_PREFIX, POSES, STATUS, Announcement, WorldState,
-                                      WorldStatus)
-from swarm_metrics.analysis import METRIC_NAMES
+from mona_controller import topics
+from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS, POSES,
+                                      ROBOT_STATES, STATUS, Announcement, WorldState,
+                                      WorldStatus, metric_topic)
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.world_cdr import (CLOCK_TYPE, FLOAT64, IMAGE, MARKER_ARRAY, OCCUPANCY_GRID,
-                                     POSE_ARRAY, STRING, UINT8_ARRAY, clock_cdr, cue_grid_cdr,
-                                     cue_image_cdr, float64_cdr, markers_cdr, pose_array_cdr,
-                                     states_cdr, string_cdr)
+from swarm_metrics.metrics import metric_names
+from swarm_metrics.world_cdr import (clock_cdr, cue_grid_cdr, cue_image_cdr, float64_cdr,
+                                     markers_cdr, pose_array_cdr, states_cdr, string_cdr)
 from swarm_supervisor.engine.episode import Episode, Step
-from swarm_supervisor.outputs.bag import EMBEDDED_MODE, ROBOT_STATES
+from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 
-#: Every topic the live view may carry, with its type: the bag's topics (less the cleaning
-#: events, which the cue map shows), plus the cue grid and the robot markers (a 3D view of
-#: the cue and of the robots coloured by state), which the bags do not record by default.
-LIVE_TOPICS: dict[str, str] = {
-    EPISODE: STRING, STATUS: STRING, CLOCK: CLOCK_TYPE, POSES: POSE_ARRAY, CUE_MAP: IMAGE,
-    CUE_GRID: OCCUPANCY_GRID, MARKERS: MARKER_ARRAY,
-    ROBOT_STATES: UINT8_ARRAY, **{METRICS_PREFIX + name: FLOAT64 for name in METRIC_NAMES}}
 #: Foxglove's WebSocket subprotocol as served by foxglove-sdk 0.30.
 SUBPROTOCOL = 'foxglove.sdk.v1'
 DEFAULT_PORT = 8765
@@ -64,6 +56,22 @@ CHECK_EVERY = 8
 REPEAT_PERIOD = 1.0
 
 
+def live_topics() -> dict[str, str]:
+    """Every topic the live view may carry, with its type: the contract's live topics
+    (:func:`mona_controller.topics.live`: the bag's topics less the cleaning events, which the
+    cue map shows, plus the cue grid and the robot markers, a 3D view of the cue and of the
+    robots coloured by state), one ``/metrics/<name>`` per metric of the table now."""
+    return {name: topic.type
+            for name, topic in topics.expand(topics.live(), metric_names()).items()}
+
+
+def __getattr__(name: str) -> object:
+    # LIVE_TOPICS reads as a constant but follows the metrics table.
+    if name == 'LIVE_TOPICS':
+        return live_topics()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 def schema_of(msgtype: str) -> Schema:
     """The ``ros2msg`` schema of a ROS 2 message type (its definition with dependencies)."""
     text, _ = TYPESTORE.generate_msgdef(msgtype, ros_version=2)
@@ -72,12 +80,12 @@ def schema_of(msgtype: str) -> Schema:
 
 class LiveServer:
     """A Foxglove WebSocket server on ``host:port`` with a channel per topic of
-    :data:`LIVE_TOPICS` (raw CDR, ``ros2msg`` schemas) and sim time as its clock.
+    :func:`live_topics` (raw CDR, ``ros2msg`` schemas) and sim time as its clock.
 
     Args:
         port: TCP port (0: any free one; :attr:`port` tells which).
         host: interface to listen on (localhost by default: nothing leaves the machine).
-        topics: the topics to serve (default: all of :data:`LIVE_TOPICS`).
+        topics: the topics to serve, with their types (default: all of :func:`live_topics`).
 
     Raises:
         RuntimeError: the server cannot listen there (the port is taken, ...).
@@ -88,7 +96,7 @@ class LiveServer:
         self.context = foxglove.Context()  # not the SDK's global one: two servers stay apart
         self.channels = {topic: Channel(topic, schema=schema_of(msgtype),
                                         message_encoding='cdr', context=self.context)
-                         for topic, msgtype in (topics or LIVE_TOPICS).items()}
+                         for topic, msgtype in (topics or live_topics()).items()}
         try:
             self.server = foxglove.start_server(name='mona-swarm', host=host, port=port,
                                                 capabilities=[Capability.Time],
@@ -247,12 +255,13 @@ class LiveView(EpisodeObserver):
 
     def _metrics(self, episode: Episode) -> None:
         """The metric sample of now, as /metrics/<name> (only if a client plots them)."""
-        topics = [METRICS_PREFIX + name for name in METRIC_NAMES]
+        names = metric_names()
+        topics = [metric_topic(name) for name in names]
         if not any(self.server.wanted(topic) for topic in topics):
             return
         row = episode.metrics()
         log_ns = self.start_ns + round(row['t'] * 1e9)
-        for name, topic in zip(METRIC_NAMES, topics):
+        for name, topic in zip(names, topics):
             self.server.publish(topic, log_ns, float64_cdr(float(row[name])))
 
 

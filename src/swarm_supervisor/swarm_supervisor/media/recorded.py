@@ -8,12 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.contract import CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES
+from mona_controller.contract import (CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
+                                      ROBOT_STATES, STATUS)
 from swarm_metrics.analysis import AnnouncementError, EpisodeSetup
 from swarm_metrics.bag_reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
 from swarm_metrics.world_cdr import states_from_cdr
-
-ROBOT_STATES = '/world/robot_states'  # swarm_supervisor.outputs.bag.ROBOT_STATES
 
 
 class AnimateError(Exception):
@@ -83,7 +82,7 @@ def read_record(path: str | Path) -> Record:
         elif topic.startswith(METRICS_PREFIX):
             metrics.setdefault(topic[len(METRICS_PREFIX):], []).append(
                 (message.log_time, float(decode(message).data)))
-        elif topic == '/world/status' and runner is None:
+        elif topic == STATUS and runner is None:
             runner = decode_json(message).get('mode')  # one status tells
         elif topic == EPISODE and setup is None:
             document = decode_json(message)

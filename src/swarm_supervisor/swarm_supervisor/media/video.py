@@ -1,5 +1,6 @@
 """Videos of episodes: the cue map being cleaned, the robots coloured by state, the clock and
-the three metrics growing, from any episode bag (either runner's).
+the plotted metrics growing (the paper's three, and any registered metric with a plot label:
+:func:`swarm_metrics.metrics.plotted`), from any episode bag (either runner's).
 
 Fast by construction: matplotlib draws the static parts (axes, labels, legend) and the full
 metric curves once; each frame is then composed in numpy (the cue through a colour table,
@@ -27,15 +28,15 @@ from matplotlib.patches import Patch
 from PIL import Image, ImageDraw, ImageFont
 
 from mona_controller.controller import STATE_NAMES, WAIT
+from swarm_metrics.metrics import METRICS, plotted
 from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.recorded import AnimateError, Record, read_record
 from swarm_world.field import CueField
 
-#: The three metrics of the paper, as plotted: (metric, axis label).
-PLOTTED = (('mean_cue_fraction', 'mean cue / initial'),
-           ('ratio_near_source', 'ratio near source'),
-           ('coherency', 'coherency (m)'))
 ASPECT = 16 / 9
+#: The vertical pitch and height of the metric plots (figure fractions): three fill the
+#: column; more share it.
+PLOT_PITCH, PLOT_HEIGHT, PLOT_COLUMN = 0.27, 0.22, 0.81
 MOVING_COLOUR = (0.85, 0.85, 0.85, 1.0)  # robots of a bag without states, not cleaning
 
 
@@ -111,17 +112,23 @@ class Renderer:
                       bbox_to_anchor=(0.53, 0.99), fontsize=12)
         axes = []
         duration = record.duration_ns / 1e9
-        for k, (name, label) in enumerate(PLOTTED):
-            ax = figure.add_axes((0.60, 0.66 - k * 0.27, 0.37, 0.22))
+        shown = plotted()
+        pitch, height = PLOT_PITCH, PLOT_HEIGHT
+        if len(shown) > 3:
+            pitch = PLOT_COLUMN / len(shown)
+            height = pitch - (PLOT_PITCH - PLOT_HEIGHT)
+        for k, (name, label) in enumerate(shown):
+            ax = figure.add_axes((0.60, 0.66 + PLOT_HEIGHT - height - k * pitch, 0.37, height))
             times, values = record.metrics.get(name, (np.zeros(0), np.zeros(0)))
             finite = values[np.isfinite(values)]
-            top = max(1.0, float(finite.max()) * 1.1) if name == 'coherency' and len(finite) \
+            # A fraction (no unit) spans 0..1.05; a quantity with a unit its own range.
+            top = max(1.0, float(finite.max()) * 1.1) if METRICS[name].unit and len(finite) \
                 else 1.05
             ax.set_xlim(0, duration)
             ax.set_ylim(0, top)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
-            if k < len(PLOTTED) - 1:
+            if k < len(shown) - 1:
                 ax.tick_params(labelbottom=False)
             else:
                 ax.set_xlabel('sim time (s)')

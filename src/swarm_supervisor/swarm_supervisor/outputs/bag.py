@@ -23,13 +23,13 @@ from pathlib import Path
 import numpy as np
 from rosbags.interfaces import Qos
 
-from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
-                                      STATUS, Announcement, WorldState, WorldStatus)
-from swarm_metrics.analysis import METRIC_NAMES
-from swarm_metrics.bag_writer import CHUNK_PERIOD, offered_qos
+from mona_controller import topics
+from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, POSES, ROBOT_STATES,
+                                      Announcement, WorldState, WorldStatus)
+from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
+from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder
-from swarm_metrics.world_cdr import (CLOCK_TYPE, FLOAT64, IMAGE, POSE_ARRAY, STRING, UINT8_ARRAY,
-                                     clock_cdr, cue_image_cdr, pose_array_cdr, states_cdr,
+from swarm_metrics.world_cdr import (clock_cdr, cue_image_cdr, pose_array_cdr, states_cdr,
                                      string_cdr)
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode, Step
@@ -37,23 +37,25 @@ from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult, run_e
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 
-#: Each robot's controller state (0 follow, 1 avoid, 2 wait, 3 turn), one message per metrics
-#: sample, logged at the sampled pose's time. Embedded bags only.
-ROBOT_STATES = '/world/robot_states'
 #: The status ``mode`` of an embedded episode (the world node says lockstep or realtime).
 EMBEDDED_MODE = 'embedded'
-#: Every topic a bag may hold: type and the QoS its publisher offers, as the metrics node
-#: records them (mona_controller.qos; tests/bags/test_embedded_bag.py holds the two equal).
-TOPICS: dict[str, tuple[str, Qos]] = {
-    EPISODE: (STRING, offered_qos(1, latched=True)),
-    STATUS: (STRING, offered_qos(1, latched=True)),
-    POSES: (POSE_ARRAY, offered_qos(1000)),
-    CLEANING: (POSE_ARRAY, offered_qos(1000)),
-    CUE_MAP: (IMAGE, offered_qos(1, latched=True)),
-    CLOCK: (CLOCK_TYPE, offered_qos(1, reliable=False)),
-    **{METRICS_PREFIX + name: (FLOAT64, offered_qos(10)) for name in METRIC_NAMES},
-    ROBOT_STATES: (UINT8_ARRAY, offered_qos(10)),
-}
+
+
+def bag_topic_table() -> dict[str, tuple[str, Qos]]:
+    """Every topic an embedded bag holds, with its type and offered QoS: the contract's
+    recorded topics (:func:`mona_controller.topics.recorded`), one ``/metrics/<name>`` per
+    metric of the table now. The node system's bags hold the same less ``/world/robot_states``
+    (``/world/robot_states``: each robot's controller state at each metrics sample, which only
+    the embedded runner knows)."""
+    return bag_topics(topics.expand(topics.recorded(), metric_names()))
+
+
+def __getattr__(name: str) -> object:
+    # TOPICS reads as a constant but follows the metrics table (a metric registered after
+    # this module was imported is in it too).
+    if name == 'TOPICS':
+        return bag_topic_table()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def status_json(status: WorldStatus) -> str:
@@ -85,7 +87,7 @@ class _FolderRecorder(Recorder):
     """A Recorder whose one episode goes to ``<folder>/bag``."""
 
     def __init__(self, folder: Path, options: BagOptions) -> None:
-        super().__init__(folder, TOPICS, chunk_period=options.chunk_period,
+        super().__init__(folder, chunk_period=options.chunk_period,
                          cue_map_period=options.cue_map_period,
                          clock_period=options.clock_period)
 

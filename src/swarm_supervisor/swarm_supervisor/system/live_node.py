@@ -20,31 +20,33 @@ import sys
 import time
 
 import rclpy
-from geometry_msgs.msg import PoseArray
-from nav_msgs.msg import OccupancyGrid
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
-from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import Image
-from std_msgs.msg import Float64, String
-from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
-from swarm_metrics.analysis import METRIC_NAMES
-from swarm_metrics.metrics_node import METRICS_QOS
+from mona_controller.topics import EMBEDDED
 from swarm_metrics.recording import stamp_ns
-from swarm_supervisor.media.live import DEFAULT_PORT, LIVE_TOPICS, MAP_RATE, RATE, LiveServer
-from swarm_supervisor.outputs.bag import ROBOT_STATES
+from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 
-#: What the node system's live view carries: everything the embedded one does but the
-#: controllers' states, which are on no topic.
-NODE_TOPICS = {topic: msgtype for topic, msgtype in LIVE_TOPICS.items()
-               if topic != ROBOT_STATES}
+
+def node_topics() -> dict[str, str]:
+    """What the node system's live view carries, with the types: everything the embedded one
+    does but what only the embedded runner publishes (the controllers' states, which are on no
+    topic)."""
+    return {name: msgtype for name, msgtype in live_topics().items()
+            if qos.topic_of(name).publisher != EMBEDDED}
+
+
+def __getattr__(name: str) -> object:
+    # NODE_TOPICS reads as a constant but follows the metrics table.
+    if name == 'NODE_TOPICS':
+        return node_topics()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,22 +73,21 @@ class LiveNode(Node):
         super().__init__('live', **kwargs)
         self.options = declare_section(self, LiveNodeParams)
         self.done = Future()  #: set to the exit status when the node should stop
-        self.server = LiveServer(self.options.port, self.options.host, NODE_TOPICS)
+        forwarded = node_topics()
+        self.server = LiveServer(self.options.port, self.options.host, forwarded)
         period, map_period = 1.0 / self.options.rate, 1.0 / self.options.map_rate
         self.min_interval = {qos.POSES: period, qos.MARKERS: period, qos.CLOCK: period,
                              qos.CUE_MAP: map_period, qos.CUE_GRID: map_period}
         self.last_sent: dict[str, float] = {}
         self.sim_ns = 0  # the latest sim time seen: the log time of unstamped messages
         self.latched: dict[str, bytes] = {}  # the announcement and the latest status
-        stamped = {qos.POSES: (PoseArray, qos.POSES_QOS), qos.CLOCK: (ClockMsg, qos.CLOCK_QOS),
-                   qos.CUE_MAP: (Image, qos.MAP_QOS), qos.CUE_GRID: (OccupancyGrid, qos.MAP_QOS),
-                   qos.MARKERS: (MarkerArray, qos.MARKERS_QOS)}
-        for topic, (msg_class, profile) in stamped.items():
-            self._subscribe(msg_class, topic, profile, self._on_stamped)
-        self._subscribe(String, qos.EPISODE, qos.EPISODE_QOS, self._on_episode)
-        self._subscribe(String, qos.STATUS, qos.STATUS_QOS, self._on_status)
-        for name in METRIC_NAMES:
-            self._subscribe(Float64, f'/metrics/{name}', METRICS_QOS, self._on_unstamped)
+        # The announcement and the status are kept for late joiners; a metric sample has no
+        # stamp; every other topic forwarded is stamped.
+        handlers = {qos.EPISODE: self._on_episode, qos.STATUS: self._on_status}
+        for topic, msgtype in forwarded.items():
+            handler = handlers.get(topic) or (
+                self._on_unstamped if qos.topic_of(topic).per_metric else self._on_stamped)
+            self._subscribe(qos.message_class(msgtype), topic, qos.profile_for(topic), handler)
         self.create_timer(1.0, self._repeat, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'live view on {self.server.url}')
 

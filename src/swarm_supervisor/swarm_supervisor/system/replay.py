@@ -7,7 +7,6 @@ bag has none.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import time
 from pathlib import Path
@@ -20,12 +19,8 @@ from rosgraph_msgs.msg import Clock
 from mona_controller import qos
 from swarm_metrics.bag_reader import McapScan
 
-PROFILES = {qos.CLOCK: qos.CLOCK_QOS, qos.EPISODE: qos.EPISODE_QOS,
-            qos.STATUS: qos.STATUS_QOS, qos.POSES: qos.POSES_QOS,
-            qos.CLEANING: qos.CLEANING_QOS, qos.CUE_MAP: qos.MAP_QOS,
-            qos.CUE_GRID: qos.MAP_QOS, qos.MARKERS: qos.MARKERS_QOS}
-PER_ROBOT = {qos.GROUND: qos.SENSOR_QOS, qos.PROXIMITY: qos.SENSOR_QOS,
-             qos.CMD_VEL: qos.COMMAND_QOS, qos.CLEANER: qos.CLEANER_QOS}
+#: The QoS of a recorded topic the contract does not know.
+OTHER_QOS = QoSProfile(depth=10)
 
 
 def play(mcap: Path, topics: dict[str, str], *, rate: float = 1.0,
@@ -50,13 +45,11 @@ def play(mcap: Path, topics: dict[str, str], *, rate: float = 1.0,
         publishers, skipped = {}, []
         for topic, msgtype in sorted(topics.items()):
             try:
-                package, _, name = msgtype.split('/')
-                msg_class = getattr(importlib.import_module(f'{package}.msg'), name)
+                msg_class = qos.message_class(msgtype)
             except (ValueError, ImportError, AttributeError):
                 skipped.append(topic)
                 continue
-            profile = PROFILES.get(topic) or PER_ROBOT.get(topic.rsplit('/', 1)[-1]) \
-                or QoSProfile(depth=10)
+            profile = qos.profile_for(topic) or OTHER_QOS
             publishers[topic] = node.create_publisher(msg_class, topic, profile)
         clock = None if qos.CLOCK in publishers else node.create_publisher(
             Clock, qos.CLOCK, qos.CLOCK_QOS)
