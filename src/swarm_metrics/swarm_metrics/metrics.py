@@ -1,4 +1,4 @@
-"""The study's metrics (method.md), computed from a cue raster and robot positions.
+"""The study's metrics (docs/model.md), computed from a cue raster and robot positions.
 
 Each metric is a declared entry, :class:`Metric` (name, unit, doc, the function that computes
 it from one sample's inputs, its plot label), in one table, :data:`METRICS`. Everything else

@@ -15,7 +15,7 @@ OBSTACLE_CUE = ('keep', 'clear')
 
 @dataclasses.dataclass(frozen=True)
 class WorldParams:
-    """The arena, the cue field and how the world steps and cleans (method.md)."""
+    """The arena, the cue field and how the world steps and cleans (docs/model.md)."""
 
     arena_side: float = param(2.85, unit='m', low=0.2, high=100.0,
                               doc='side of the square walled arena')
