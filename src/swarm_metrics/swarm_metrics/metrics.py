@@ -91,9 +91,30 @@ def ratio_near_source(positions: np.ndarray, sources: np.ndarray, radius: float)
     return float(np.count_nonzero(distance <= radius) / len(positions))
 
 
-# 'reassoc': each row's sums may be added in any order (so LLVM vectorises them); the rows
-# are then added in order. Deterministic for a given build, like the coherency's row sums.
-@numba.njit(cache=True, fastmath={'reassoc'})
+# The two sum kernels below fix the order of every addition in the source (no fastmath
+# 'reassoc'), so their results are the same bits on any CPU: with 'reassoc' LLVM chose the
+# order by the CPU's vector width, and a per-source column differed between an AVX2 and an
+# AVX-512 machine. The terms go into a buffer first (that loop still vectorises), then
+# _ordered_sum adds them in a fixed order.
+@numba.njit(cache=True)
+def _ordered_sum(terms: np.ndarray, count: int) -> float:  # pragma: no cover - jit
+    """The sum of ``terms[:count]`` in four interleaved partial sums, added in order."""
+    a0 = a1 = a2 = a3 = 0.0
+    k = 0
+    while k + 4 <= count:
+        a0 += terms[k]
+        a1 += terms[k + 1]
+        a2 += terms[k + 2]
+        a3 += terms[k + 3]
+        k += 4
+    total = (a0 + a1) + (a2 + a3)
+    while k < count:
+        total += terms[k]
+        k += 1
+    return total
+
+
+@numba.njit(cache=True)
 def region_totals(cue: np.ndarray, cell_size: float, sx: np.ndarray,
                   sy: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
     """The cue summed (float64) over each source's region: the cells whose centre is nearer
@@ -108,6 +129,7 @@ def region_totals(cue: np.ndarray, cell_size: float, sx: np.ndarray,
     best = np.empty(cols)
     which = np.empty(cols, dtype=np.int64)
     totals = np.zeros(count)
+    terms = np.empty(cols)
     for i in range(rows):
         y = (i + 0.5) * cell_size
         for j in range(cols):  # branch-free passes, so each vectorises
@@ -121,10 +143,9 @@ def region_totals(cue: np.ndarray, cell_size: float, sx: np.ndarray,
                 best[j] = d if closer else best[j]
                 which[j] = k if closer else which[j]
         for k in range(count):
-            row = 0.0
             for j in range(cols):
-                row += np.float64(cue[i, j]) if which[j] == k else 0.0
-            totals[k] += row
+                terms[j] = np.float64(cue[i, j]) if which[j] == k else 0.0
+            totals[k] += _ordered_sum(terms, cols)
     return totals
 
 
@@ -173,21 +194,22 @@ def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
     return i, j
 
 
-# 'reassoc' only: the sum of a row may be added in any order (so LLVM vectorises the square
-# roots), but NaN and inf keep their meaning. Each row is at most N - 1 terms, and numpy's
-# pairwise sum adds the rows, so the rounding error stays near N * 1e-16.
-@numba.njit(cache=True, fastmath={'reassoc'})
+# Each row's distances summed by _ordered_sum: the same bits on any CPU. A row is at most
+# N - 1 terms, and numpy's pairwise sum adds the rows, so the rounding error stays near
+# N * 1e-16.
+@numba.njit(cache=True)
 def _row_distance_sums(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
     """Row i: the sum of the distances from robot i to robots i + 1 .. N - 1."""
     n = x.shape[0]
     rows = np.zeros(n)
+    distances = np.empty(n)
     for i in range(n - 1):
         xi, yi = x[i], y[i]
-        total = 0.0
-        for j in range(i + 1, n):
-            dx, dy = x[j] - xi, y[j] - yi
-            total += math.sqrt(dx * dx + dy * dy)
-        rows[i] = total
+        count = n - i - 1
+        for k in range(count):
+            dx, dy = x[i + 1 + k] - xi, y[i + 1 + k] - yi
+            distances[k] = math.sqrt(dx * dx + dy * dy)
+        rows[i] = _ordered_sum(distances, count)
     return rows
 
 
