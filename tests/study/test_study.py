@@ -75,6 +75,7 @@ def test_every_output_is_written_and_well_formed(finished):
         if name.endswith(('.png', '.csv')) or name == 'parameters.yaml':
             assert f']({name})' in report, name
     assert 'N = 3' in report and 'Wall time' in report
+    assert '- Monas: the `idealised` profile' in report
     folders = sorted((finished / study.EPISODES_DIR).iterdir())
     assert [f.name for f in folders] == sorted(
         f'N{n}_v{v}_s{s}' for n in (3, 5) for v in (4, 8) for s in (1, 2))

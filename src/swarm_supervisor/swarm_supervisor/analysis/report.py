@@ -26,6 +26,7 @@ from swarm_supervisor.analysis import anova as anova_tables
 from swarm_supervisor.analysis import checks
 from swarm_supervisor.analysis import claims as claim_checks
 from swarm_supervisor.analysis import figures
+from swarm_supervisor.analysis import profile
 from swarm_metrics.completeness import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
@@ -308,6 +309,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                      "folder's episode.json also records its own")
     else:
         lines.append("- every parameter: in each episode folder's episode.json")
+    lines.append(profile.describe(records))
     factors = study.design_factors(table)
     for factor in factors:
         lines.append(f'- factor `{factor}`: '
