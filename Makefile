@@ -1,13 +1,13 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
-#   make test   set up the venv, lint (ruff) and run the test suite
+#   make test   set up the venv, lint (ruff), type-check the pure cores (mypy), run the tests
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint bench sensitivity clean
+.PHONY: venv run test lint typecheck bench sensitivity clean
 
 venv: $(VENV)/.installed
 
@@ -21,11 +21,15 @@ $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 run: venv
 	$(VENV)/bin/mona-swarm study --out $(STUDY_OUT)
 
-test: lint
+test: lint typecheck
 	$(PY) -m pytest
 
 lint: venv
 	$(VENV)/bin/ruff check .
+
+# The pure cores' types (the files: pyproject.toml, [tool.mypy])
+typecheck: venv
+	$(VENV)/bin/mypy
 
 # The sensitivity design of docs/model.md (180 episodes of 4000 s; resumes a partial run)
 sensitivity: venv

@@ -243,9 +243,9 @@ class SwarmController(Controller):
         """The ``robots`` carry out their ``actions`` (:data:`_ACTIONS`, of every robot) at
         ``now`` (one time, or each robot's); one by one, as they are few."""
         state, until, block = self.state, self.until, self._command_block
-        each = isinstance(now, np.ndarray) and now.ndim > 0
+        each = now if isinstance(now, np.ndarray) and now.ndim > 0 else None
         for i in robots:
-            action, now_i = actions.item(i), now.item(i) if each else now
+            action, now_i = actions.item(i), now if each is None else each.item(i)
             if action == _FOLLOW:
                 state[i] = FOLLOW
                 block[i] = _FOLLOWING
@@ -336,7 +336,7 @@ def _tables(params: ControllerParams, max_command: float, beta: float,
     total = np.arange(_VALUES)
     left = np.minimum(total, 255)
     ground = np.stack([left, total - left], axis=1).astype(np.uint8)
-    waits = waiting_time(ground.astype(np.float64).mean(axis=1), params)
+    waits = np.asarray(waiting_time(ground.astype(np.float64).mean(axis=1), params))
     difference = total - _ZERO_DIFFERENCE
     ground = np.stack([np.maximum(difference, 0), np.maximum(-difference, 0)],
                       axis=1).astype(np.uint8)
@@ -345,6 +345,6 @@ def _tables(params: ControllerParams, max_command: float, beta: float,
     for first, direction in ((_COUNTER_CLOCKWISE, 1.0), (_CLOCKWISE, -1.0)):
         spin = direction * turn_command
         commands[first:first + _VALUES] = (-spin, spin)
-    commands = commands.view(np.complex128).ravel()
-    waits.flags.writeable = commands.flags.writeable = False
-    return waits, commands
+    packed = commands.view(np.complex128).ravel()
+    waits.flags.writeable = packed.flags.writeable = False
+    return waits, packed

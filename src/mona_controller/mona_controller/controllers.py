@@ -20,7 +20,7 @@ import dataclasses
 import importlib
 import importlib.metadata
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, ClassVar, Self
+from typing import TYPE_CHECKING, Any, ClassVar, Self
 
 import numpy as np
 
@@ -193,6 +193,7 @@ class Controller(abc.ABC):
         bounds = np.cumsum([0] + [len(part.robot_ids) for part in parts]).tolist()
         for name in cls.PER_ROBOT:
             values = [getattr(part, name) for part in parts]
+            joined: np.ndarray | list[Any]
             if isinstance(values[0], np.ndarray):
                 joined = np.concatenate(values)
                 for part, start, stop in zip(parts, bounds, bounds[1:]):

@@ -6,6 +6,7 @@ Frames follow REP 103: x forward, y left, angles counter-clockwise in radians.
 from __future__ import annotations
 
 import dataclasses
+from typing import Protocol
 
 import numpy as np
 
@@ -126,7 +127,20 @@ class MonaParams:
         return np.linspace(-self.ir_span / 2, self.ir_span / 2, self.ir_count)
 
 
-def wheels_to_twist(wheels: np.ndarray, mona: MonaParams) -> tuple[np.ndarray, np.ndarray]:
+class WheelGeometry(Protocol):
+    """What :func:`wheels_to_twist` reads: a Mona's (or each robot's) wheel geometry."""
+
+    @property
+    def wheel_unit_speed(self) -> float | np.ndarray:
+        """m/s per wheel command unit."""
+
+    @property
+    def wheel_separation(self) -> float | np.ndarray:
+        """m between the wheels."""
+
+
+def wheels_to_twist(wheels: np.ndarray,
+                    mona: MonaParams | WheelGeometry) -> tuple[np.ndarray, np.ndarray]:
     """Convert wheel commands [N, 2] (left, right; wheel units) to (linear m/s, angular rad/s).
 
     Both runners pass commands through this one function, so a command carried by a

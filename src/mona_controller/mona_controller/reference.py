@@ -201,8 +201,13 @@ def check_controller(controller: Controller | Callable[[], Controller], *, seed:
     trace = np.empty((steps, n), dtype=np.int8)
     for step in range(steps):
         ground, ranges, is_robot = random_readings(rng, n, fast.mona[0].ir_count)
-        now = step * period if starts is None else starts + step * period
-        times = [now] * n if starts is None else now.tolist()
+        now: float | np.ndarray
+        if starts is None:
+            now = step * period
+            times = [now] * n
+        else:
+            now = starts + step * period
+            times = now.tolist()
         command = fast.step(ground, ranges, is_robot, now)
         answers = [hand.step(ground[i].tolist(), ranges[i].tolist(), is_robot[i].tolist(),
                              times[i]) for i, hand in enumerate(hands)]
@@ -212,7 +217,7 @@ def check_controller(controller: Controller | Callable[[], Controller], *, seed:
         for name, mine, theirs, dtype in FIELDS:
             got[name] = _held(getattr(fast, mine), name, dtype, n, step)
             expected[name] = np.array([getattr(hand, theirs) for hand in hands], dtype=dtype)
-        _compare(got, expected, fast.rngs, hands, ids, step)
+        _compare(got, expected, fast.rngs, hands, ids, step)  # type: ignore[attr-defined]
         trace[step] = fast.state
     return trace
 

@@ -145,7 +145,7 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         ParameterError: for an unknown key (listing the known ones) or a bad value.
     """
     mapping = dict(mapping or {})
-    known = {f.name: f for f in dataclasses.fields(cls)}
+    known = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = sorted(set(mapping) - set(known))
     if unknown:
         raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
@@ -156,7 +156,9 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         if spec_of(field) is None:
             if not isinstance(value, Mapping):
                 raise ParameterError(f'{prefix}{name} must be a section (a mapping)')
-            value = from_mapping(type(field.default_factory()), value, f'{prefix}{name}.')
+            factory = field.default_factory
+            assert callable(factory), f'{prefix}{name}: a section field needs a default_factory'
+            value = from_mapping(type(factory()), value, f'{prefix}{name}.')
         values[name] = value
     try:
         return cls(**values)
@@ -171,9 +173,10 @@ def to_mapping(section: Any) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for field in dataclasses.fields(section):
         value = getattr(section, field.name)
-        if spec_of(field) is None:
+        spec = spec_of(field)
+        if spec is None:
             out[field.name] = to_mapping(value)
-        elif spec_of(field).keyed:
+        elif spec.keyed:
             out[field.name] = {key: list(values) for key, values in value}
         else:
             out[field.name] = list(value) if isinstance(value, tuple) else value

@@ -151,7 +151,8 @@ def check_online(metrics: Mapping[str, Sequence[tuple[int, float]]], start_ns: i
         indices = {(t - start_ns) // sample_ns for t, _ in metrics.get(name, [])
                    if t >= start_ns and (t - start_ns) % sample_ns == 0}
         present = indices if present is None else present & indices
-    return check_indices(present, last_index(duration, sample_period), sample_period, ONLINE)
+    return check_indices(present or set(), last_index(duration, sample_period), sample_period,
+                         ONLINE)
 
 
 # --- the other checks ---------------------------------------------------------------------

@@ -147,7 +147,7 @@ class WorldParams:
                 raise ParameterError(f'world.source_path.{name}: a waypoint lies outside the '
                                      f'{self.arena_side} m arena')
             result.append(Source(name, x, y, radius, peak, profile[0], emission,
-                                 tuple(velocity), path[0], points))
+                                 (velocity[0], velocity[1]), path[0], points))
         return result
 
     def arena(self) -> Arena:

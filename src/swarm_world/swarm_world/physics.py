@@ -79,10 +79,10 @@ class Physics:
             wall.friction = 0.0
             self.space.add(wall)
         for obstacle in obstacles:
-            shape = static_shape(self.space.static_body, obstacle)
-            shape.elasticity = 0.0  # as the walls
-            shape.friction = 0.0
-            self.space.add(shape)
+            solid = static_shape(self.space.static_body, obstacle)
+            solid.elasticity = 0.0  # as the walls
+            solid.friction = 0.0
+            self.space.add(solid)
         self._read = pymunk.batch.Buffer()
         self._write = pymunk.batch.Buffer()
         # The space also lists its static body last: the buffers carry one spare row.

@@ -155,6 +155,7 @@ class Batch:
 
     def _profiled_step(self) -> list[tuple[Episode, Step]]:
         spent, clock = self.profile, time.perf_counter
+        assert spent is not None, 'profiled steps run only with profile=True'
         t0 = t1 = t2 = t3 = clock()
         if self.active[0].steps_done % self._control_steps == 0:
             ground = self.worlds.ground()

@@ -138,6 +138,7 @@ class Episode:
         """:meth:`step` with its parts timed, from the same calls ``World.sense`` makes (the
         ground half, then the IR half), so the trajectory is the same."""
         world, spent, clock = self.world, self.profile, time.perf_counter
+        assert spent is not None, 'profiled steps run only with profile=True'
         t0 = t1 = t2 = t3 = clock()
         if world.steps % self.control_steps == 0:
             ground = world.ground_readings()

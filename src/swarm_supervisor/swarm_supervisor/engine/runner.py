@@ -4,9 +4,10 @@ machine allows. It runs the study, sweeps and tests; the ROS node system runs th
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Sequence
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -156,17 +157,17 @@ def run_batch(configs: Sequence[SwarmConfig], *, snapshot_times: Sequence[float]
     episodes = [Episode(config) for config in configs]
     index = {id(episode): k for k, episode in enumerate(episodes)}
     collectors = [_Collector(episode, snapshot_times,
-                             None if progress is None else
-                             (lambda t, k=k: progress(k, t)))
+                             None if progress is None else functools.partial(progress, k))
                   for k, episode in enumerate(episodes)]
     results: list[EpisodeResult | None] = [None] * len(configs)
 
     def finish(k: int) -> None:
         for observer in observers[k]:
             observer.finish(episodes[k])
-        results[k] = collectors[k].result((time.perf_counter() - started) / len(configs))
+        result = collectors[k].result((time.perf_counter() - started) / len(configs))
+        results[k] = result
         if finished is not None:
-            finished(k, results[k])
+            finished(k, result)
 
     batch = Batch(episodes)
     for k, episode in enumerate(episodes):
@@ -184,4 +185,4 @@ def run_batch(configs: Sequence[SwarmConfig], *, snapshot_times: Sequence[float]
                 observer.step(episode, step)
             if episode.done:
                 finish(k)
-    return results
+    return cast(list[EpisodeResult], results)  # every episode finished
