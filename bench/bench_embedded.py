@@ -23,6 +23,11 @@ batches of 16 (the study's default). The episodes run 400 s by default, as the l
 
 Large swarms run shorter episodes (``--duration`` * 500 / N, at least ``--min-duration``),
 so the whole benchmark takes a few minutes here.
+
+With ``--profiles``, only the cost of the Monas' sensing chain: each profile of
+``ros_ws/config/profiles/`` and the idealised model on the 3.9 mm raster of a Webots Display
+(``world.cell_size`` 1/256 m), N = 50 at 8 cm/s in a batch of the study's size, each as a
+ratio to the idealised model measured in the same run (alternating, best of three rounds).
 """
 
 from __future__ import annotations
@@ -116,6 +121,32 @@ def batched(base: SwarmConfig, populations: list[int], sizes: list[int], duratio
             print(line, flush=True)
 
 
+#: The variants of --profiles: name -> how they change the base (the shipped parameter file).
+FINE_RASTER = {'world': {'cell_size': 1 / 256}}
+
+
+def profiles(base: SwarmConfig, duration: float, rounds: int = 3) -> None:
+    """Print each profile's real-time factor per episode and its ratio to the idealised one."""
+    from swarm_supervisor.analysis.profile import PROFILES_DIR
+    variants = {path.stem: load_config(path) for path in sorted(PROFILES_DIR.glob('*.yaml'))}
+    variants['idealised, 3.9 mm raster'] = base.replace(**FINE_RASTER)
+    size = DEFAULT_BATCH_SIZE
+    best = dict.fromkeys(variants, math.inf)
+    for _ in range(rounds):  # alternate, so the machine's load falls on every variant alike
+        for name, config in variants.items():
+            configs = [config.replace(episode={'population': 50, 'duration': duration,
+                                               'seed': seed + 1}) for seed in range(size)]
+            started = time.perf_counter()
+            run_batch(configs)
+            best[name] = min(best[name], time.perf_counter() - started)
+    print(f'sensing-chain profiles: N = 50, 8 cm/s, {size} episodes of {duration:g} s in a '
+          f'batch, best of {rounds}')
+    reference = best['idealised']
+    for name, wall in best.items():
+        print(f'{name:>26} {wall:7.2f} s {size * duration / wall:8.1f}x per episode '
+              f'{wall / reference:6.2f} x the idealised time', flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--populations', type=int, nargs='*',
@@ -126,6 +157,8 @@ def main() -> None:
                         help='the shortest episode of a large swarm (sim seconds)')
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--no-split', action='store_true', help='skip the profiled runs')
+    parser.add_argument('--profiles', action='store_true',
+                        help="only the sensing-chain profiles' cost (ratios in one run)")
     parser.add_argument('--batch-sizes', type=int, nargs='*', default=[1, 4, 16, 64],
                         help='batch sizes of the batched engine (none: skip it)')
     parser.add_argument('--batch-populations', type=int, nargs='+', default=[10, 50])
@@ -135,6 +168,9 @@ def main() -> None:
     base = load_config()
     run_episode(base.replace(episode={'population': 300, 'duration': 1.0}))  # compile kernels
     run_batch([base.replace(episode={'population': 5, 'duration': 1.0})] * 2)
+    if args.profiles:
+        profiles(base, args.batch_duration)
+        return
     if args.batch_sizes:
         batched(base, args.batch_populations, args.batch_sizes, args.batch_duration,
                 not args.no_split)
