@@ -117,3 +117,23 @@ def test_non_default_model_parameters_match_the_embedded_runner(executor, spin_u
     # The parameters took effect: the default model runs differently.
     default = run_episode(SwarmConfig().replace(episode=sections['episode']))
     assert not np.array_equal(default.final_poses, embedded.final_poses)
+
+
+def test_an_announcement_is_compared_as_parameters_naming_the_keys(executor, tmp_path):
+    """A driver's announcement that leaves keys at their defaults is the same model; one that
+    differs is refused naming the key, not by printing two whole sections."""
+    from mona_controller.contract import Announcement
+    world = WorldNode(context=executor.context,
+                      parameter_overrides=[Parameter('output_dir', value=str(tmp_path))])
+    try:
+        shipped = {'body_radius': 0.04, 'ir_count': 5}  # ground_noise etc. left out
+        same = Announcement(episode=0, seed=1, population=2, duration=1.0,
+                            parameters={'mona': shipped, 'world': {'arena_side': 2.85}})
+        assert world._check_announcement(same) == ''
+        other = Announcement(episode=0, seed=1, population=2, duration=1.0,
+                             parameters={'mona': {**shipped, 'ir_range': 0.05}})
+        problem = world._check_announcement(other)
+        assert 'mona.ir_range: announced 0.05, here 0.03' in problem
+        assert 'body_radius' not in problem
+    finally:
+        world.destroy_node()

@@ -36,7 +36,7 @@ from mona_controller.messages import (ReadingError, fill_twist, ground_from_imag
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.pairing import RateLimitedLog, ReadingPairs
 from mona_controller.ros_params import declare_section
-from mona_controller.schema import ParameterError, param, to_mapping, validate
+from mona_controller.schema import ParameterError, differences, param, validate
 from mona_controller.shutdown import teardown
 
 #: Wall seconds between checks that a world (or driver) listens to our commands.
@@ -155,10 +155,15 @@ class ControllerNode(Node):
         """Warn when the supervisor runs other model parameters than this node."""
         for section, mine in (('mona', self.mona), ('controller', self.params)):
             theirs = announced.get(section)
-            if theirs is not None and theirs != to_mapping(mine):
+            if theirs is None:
+                continue
+            # As parameters (defaults applied): a file that leaves a key at its default
+            # runs the same model as one that spells it out.
+            differ = differences(mine, theirs, f'{section}.')
+            if differ:
                 self.get_logger().error(
-                    f'the episode announces {section} parameters {theirs} but this node runs '
-                    f'{to_mapping(mine)}: start every node with the same --params-file')
+                    f'the episode announces other {section} parameters than this node runs: '
+                    + '; '.join(differ) + ': start every node with the same --params-file')
 
     def on_ground(self, msg: Image) -> None:
         try:

@@ -185,14 +185,7 @@ def to_mapping(section: Any) -> dict[str, Any]:
 
 def flat_fields(cls: type, prefix: str = '') -> Iterator[tuple[str, Any, Spec]]:
     """Every leaf field as (dotted name, default, spec), for declaring ROS parameters."""
-    instance = cls()
-    for field in dataclasses.fields(cls):
-        spec = spec_of(field)
-        value = getattr(instance, field.name)
-        if spec is None:
-            yield from flat_fields(type(value), f'{prefix}{field.name}.')
-        else:
-            yield f'{prefix}{field.name}', value, spec
+    yield from _leaves(cls(), prefix)
 
 
 def unflatten(flat: Mapping[str, Any]) -> dict[str, Any]:
@@ -205,3 +198,30 @@ def unflatten(flat: Mapping[str, Any]) -> dict[str, Any]:
             node = node.setdefault(part, {})
         node[leaf] = value
     return nested
+
+
+def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') -> list[str]:
+    """How ``announced`` (a mapping, e.g. another node's section as JSON) differs from
+    ``section`` as parameters: the mapping is built into a section first, so a key it leaves
+    out counts at its default. One line per differing key (``prefix`` + name, both values);
+    a mapping that is not a valid section is one line saying why.
+    """
+    try:
+        theirs = from_mapping(type(section), announced, prefix)
+    except ParameterError as error:
+        return [f'the announced {prefix.rstrip(".") or "section"} is not valid here: {error}']
+    mine_flat = {name: value for name, value, _ in _leaves(section, prefix)}
+    theirs_flat = {name: value for name, value, _ in _leaves(theirs, prefix)}
+    return [f'{name}: announced {theirs_flat[name]!r}, here {value!r}'
+            for name, value in mine_flat.items() if theirs_flat[name] != value]
+
+
+def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
+    """Every leaf field of an instance as (dotted name, value, spec)."""
+    for field in dataclasses.fields(section):
+        spec = spec_of(field)
+        value = getattr(section, field.name)
+        if spec is None:
+            yield from _leaves(value, f'{prefix}{field.name}.')
+        else:
+            yield f'{prefix}{field.name}', value, spec

@@ -38,7 +38,7 @@ from mona_controller.messages import (fill_readings, ground_image, proximity_sca
                                       stamp_to_ns)
 from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
-from mona_controller.schema import ParameterError, to_mapping
+from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
@@ -208,10 +208,12 @@ class WorldNode(Node):
                     f'{self.time_ns}: sim time must not run backwards')
         for section, mine in (('world', self.params), ('mona', self.mona)):
             theirs = announcement.parameters.get(section)
-            if theirs is not None and theirs != to_mapping(mine):
-                return (f'the announced {section} parameters {theirs} differ from the world '
-                        f"node's {to_mapping(mine)}: start every node with the same "
-                        '--params-file')
+            # As parameters (defaults applied), naming the keys that differ.
+            differ = [] if theirs is None else differences(mine, theirs, f'{section}.')
+            if differ:
+                return (f'the announced {section} parameters differ from the world '
+                        "node's: " + '; '.join(differ)
+                        + ': start every node with the same --params-file')
         return ''
 
     def on_recorder(self, msg: String) -> None:

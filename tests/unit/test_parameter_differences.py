@@ -1,0 +1,33 @@
+"""A node compares an announced parameter section as parameters, defaults applied, and names
+the keys that differ (a driver's file that leaves keys at their defaults is the same model)."""
+
+from __future__ import annotations
+
+from mona_controller.mona import MonaParams
+from mona_controller.schema import differences, flat_fields, to_mapping
+from mona_controller.controller import ControllerParams
+
+
+def test_a_section_that_leaves_keys_at_their_defaults_does_not_differ():
+    mine = MonaParams()
+    shipped_keys_only = {'body_radius': 0.04, 'ir_count': 5}  # ground_noise etc. left out
+    assert differences(mine, shipped_keys_only, 'mona.') == []
+    assert differences(mine, to_mapping(mine), 'mona.') == []
+    assert differences(mine, {}, 'mona.') == []
+
+
+def test_the_differing_keys_are_named_with_both_values():
+    mine = MonaParams()
+    lines = differences(mine, {'ir_range': 0.05, 'ground_noise': 2.0}, 'mona.')
+    assert sorted(lines) == ['mona.ground_noise: announced 2.0, here 0.0',
+                             'mona.ir_range: announced 0.05, here 0.03']
+
+
+def test_an_announcement_this_node_cannot_read_says_why():
+    lines = differences(ControllerParams(), {'no_such_key': 1}, 'controller.')
+    assert len(lines) == 1 and 'unknown parameter controller.no_such_key' in lines[0]
+
+
+def test_flat_fields_still_lists_every_default():
+    names = [name for name, _, _ in flat_fields(MonaParams, 'mona.')]
+    assert 'mona.ground_noise' in names and 'mona.body_radius' in names
