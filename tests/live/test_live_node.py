@@ -77,5 +77,9 @@ def test_the_client_sees_the_swarm_with_ros2_schemas(watched):
     assert all(0 < value < 4.1 for value in values)  # metres, inside a 2.85 m arena
     status = json.loads(seen.messages['/world/status'][-1][1].data)
     assert status['mode'] == 'lockstep'
+    # The robot markers' log time is their stamp (a marker array has no header of its own).
+    markers = seen.messages['/world/markers']
+    assert markers and all(log_time == msg.markers[0].header.stamp.sec * 10**9
+                           + msg.markers[0].header.stamp.nanosec for log_time, msg in markers)
     # The world's latched obstacles, repeated for the client: none in this arena.
     assert all(list(msg.markers) == [] for _, msg in seen.messages['/world/obstacles'])

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import struct
 import sys
 import time
 
@@ -32,6 +33,17 @@ from mona_controller.shutdown import teardown
 from mona_controller.topics import EMBEDDED
 from swarm_metrics.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
+
+
+def message_stamp(topic: str, data: bytes) -> int:
+    """The sim time (ns) a forwarded message describes: its header's stamp; a marker array
+    has no header, so its first marker's (the robot markers all share one stamp)."""
+    if topic == qos.MARKERS:
+        if len(data) < 16:
+            return 0  # no markers
+        sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 8)
+        return sec * 1_000_000_000 + nanosec
+    return stamp_ns(data)
 
 
 def node_topics() -> dict[str, str]:
@@ -111,7 +123,7 @@ class LiveNode(Node):
         return True
 
     def _on_stamped(self, topic: str, data: bytes) -> None:
-        stamp = stamp_ns(data)
+        stamp = message_stamp(topic, data)
         if stamp > self.sim_ns:
             self.sim_ns = stamp
             self.server.set_time(stamp)
