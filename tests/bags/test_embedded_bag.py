@@ -33,7 +33,7 @@ pytestmark = pytest.mark.ros
 POPULATION, DURATION, SEED = 8, 16.0, 1
 #: What the comparison covers: everything but the world's status documents (the embedded
 #: one says mode "embedded") and the embedded-only robot states.
-COMPARED = ('/world/poses', '/world/cleaning', '/world/cue_map', '/episode',
+COMPARED = ('/world/poses', '/world/cleaning', '/world/cue_map', '/episode', '/world/obstacles',
             *(f'/metrics/{name}' for name in ('mean_cue', 'mean_cue_fraction',
                                               'ratio_near_source', 'coherency')))
 
@@ -75,6 +75,9 @@ def plain(topic: str, msg) -> object:
     if topic == '/world/cue_map':
         return ((msg.header.stamp.sec, msg.header.stamp.nanosec), msg.height, msg.width,
                 msg.encoding, bytes(msg.data))
+    if topic == '/world/obstacles':  # empty here: these runs have no obstacles
+        return [(m.ns, m.id, m.type, m.text, m.pose.position.x, m.pose.position.y, m.scale.x,
+                 m.scale.y, [(p.x, p.y) for p in m.points]) for m in msg.markers]
     if topic == '/episode':
         document = json.loads(msg.data)
         return {key: value for key, value in document.items() if key != 'start_ns'}

@@ -55,7 +55,8 @@ def test_the_named_profiles_are_the_tables():
              (qos.CLEANING_QOS, (topics.CLEANING,)),
              (qos.MAP_QOS, (topics.CUE_MAP, topics.CUE_GRID)),
              (qos.STATUS_QOS, (topics.STATUS,)), (qos.EPISODE_QOS, (topics.EPISODE,)),
-             (qos.MARKERS_QOS, (topics.MARKERS,)), (qos.RECORDERS_QOS, (topics.RECORDERS,)),
+             (qos.MARKERS_QOS, (topics.MARKERS,)), (qos.OBSTACLES_QOS, (topics.OBSTACLES,)),
+             (qos.RECORDERS_QOS, (topics.RECORDERS,)),
              (qos.METRICS_QOS, (topics.METRICS_PREFIX,))]
     for profile, names in named:
         for name in names:

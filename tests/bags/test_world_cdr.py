@@ -13,10 +13,11 @@ from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.world_cdr import (STATE_COLOURS, clock_cdr, cue_grid_cdr, cue_image_cdr,
-                                     float64_cdr, markers_cdr, pose_array_cdr, states_cdr,
-                                     states_from_cdr, string_cdr)
+                                     float64_cdr, markers_cdr, obstacles_cdr, pose_array_cdr,
+                                     states_cdr, states_from_cdr, string_cdr)
 from swarm_supervisor.outputs.bag import status_json
-from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image
+from swarm_world.arena import Arena, Disc, Polygon, Rect
+from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, obstacle_markers
 
 pytestmark = pytest.mark.ros
 NS = 12_345_678_901
@@ -75,3 +76,17 @@ def test_the_recorder_status_text_is_the_contract_text():
     status = WorldStatus(3, WorldState.FINISHED, step=7, steps=9, time_ns=NS, mode='embedded',
                          misses=(0, 1, 2), absent=(1,), cleaning_events=4, error='x')
     assert status_json(status) == status.to_json()
+
+
+def test_obstacle_markers_are_rclpy_bytes():
+    """The world node's /world/obstacles and the embedded runner's are the same message."""
+    arena = Arena(2.85, (Disc('a', 1.0, 1.0, 0.1), Rect.of('b', 2.2, 0.3, 2.26, 1.1),
+                         Polygon('c', ((0.3, 2.3), (0.7, 2.5), (0.35, 2.6)))))
+    for case in (arena, Arena(2.85)):
+        ours, theirs = obstacles_cdr(case), bytes(serialize_message(obstacle_markers(case)))
+        msgtype = 'visualization_msgs/msg/MarkerArray'
+        assert len(ours) == len(theirs)
+        # Padding aside: both decode to the same message.
+        assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
+            TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)
+    assert obstacles_cdr(Arena(2.85)) == bytes(serialize_message(obstacle_markers(Arena(2.85))))

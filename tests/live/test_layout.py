@@ -56,12 +56,13 @@ def test_the_layout_names_only_topics_the_bags_and_the_live_view_carry():
     assert everything - LIVE_ONLY <= set(TOPICS)
     assert LIVE_ONLY <= set(LIVE_TOPICS) and not LIVE_ONLY & set(TOPICS)
     # The paper's plotted metrics (the entries with a plot label) are plotted, the
-    # announcement and the status shown, the arena's robots and cue drawn: from a bag (poses,
-    # cue map) and live (markers, grid).
+    # announcement and the status shown, the arena's robots, obstacles and cue drawn: from a
+    # bag (poses, obstacles, cue map) and live (markers, grid).
     shown = set().union(*(t for p, t in named.items() if p.startswith('Plot')))
     assert shown == {metric_topic(name) for name, _ in plotted() if name in PAPER_METRICS}
     assert shown == {'/metrics/mean_cue_fraction', '/metrics/ratio_near_source',
                      '/metrics/coherency'}
     assert {'/episode', '/world/status'} <= everything
-    assert named['3D!arena'] == {'/world/poses', '/world/cue_grid', '/world/markers'}
+    assert named['3D!arena'] == {'/world/poses', '/world/cue_grid', '/world/markers',
+                                 '/world/obstacles'}
     assert named['Image!cue'] == {'/world/cue_map'}

@@ -20,8 +20,12 @@ from foxclient import Capture, connect_when_up
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.live import LIVE_TOPICS
+from swarm_supervisor.media.recorded import read_record
+from swarm_world.arena_markers import obstacles_from_markers
 
 POPULATION, DURATION, PACE = 6, 60.0, 12.0
+#: The watched episode runs among the obstacles of docs/extending.md's example layout.
+LAYOUT = Path(__file__).parents[2] / 'examples' / 'obstacle_layout.yaml'
 
 
 def start_run(out: Path, *extra: str) -> tuple[subprocess.Popen, str]:
@@ -41,14 +45,15 @@ def start_run(out: Path, *extra: str) -> tuple[subprocess.Popen, str]:
 def enough(capture: Capture) -> bool:
     return len(capture.messages.get('/world/poses', ())) >= 8 and \
         len(capture.messages.get('/metrics/coherency', ())) >= 3 and \
-        '/world/cue_map' in capture.messages and '/episode' in capture.messages
+        '/world/cue_map' in capture.messages and '/episode' in capture.messages and \
+        '/world/obstacles' in capture.messages
 
 
 @pytest.fixture(scope='module')
 def watched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Capture, Path, str]:
     """(what the client saw, the run's folder, its stdout) of a paced episode with a bag."""
     out = tmp_path_factory.mktemp('live') / 'run'
-    process, url = start_run(out, '--pace', str(PACE), '--bag')
+    process, url = start_run(out, '--pace', str(PACE), '--bag', '--config', str(LAYOUT))
     try:
         seen = connect_when_up(url, seconds=30, done=enough)
         stdout, stderr = process.communicate(timeout=120)
@@ -93,6 +98,19 @@ def test_robots_arena_cue_and_sim_time(watched):
     assert grid.info.width == 285 and grid.info.resolution == pytest.approx(0.01)  # float32
     status = json.loads(seen.messages['/world/status'][-1][1].data)
     assert status['state'] in ('running', 'finished') and status['mode'] == 'embedded'
+
+
+def test_the_obstacles_are_shown_as_the_bag_has_them(watched):
+    """The layout's eight obstacles on /world/obstacles, live as in the bag."""
+    seen, out, _ = watched
+    log_time, msg = seen.messages['/world/obstacles'][-1]
+    assert log_time == 0  # the episode's start, as in the bag
+    assert [(m.ns, m.id, m.text) for m in msg.markers] == \
+        [('obstacles', k, name) for k, name in enumerate(
+            ['ring_0', 'ring_1', 'ring_2', 'ring_3', 'ring_4', 'ring_5', 'wall', 'wedge'])]
+    assert [m.type for m in msg.markers] == [3] * 6 + [1, 11]  # cylinders, a cube, a prism
+    # The same shapes as the video reads from the bag.
+    assert obstacles_from_markers(msg.markers) == read_record(out).obstacles
 
 
 def test_live_equals_the_bag(watched):

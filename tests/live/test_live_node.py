@@ -32,7 +32,8 @@ def free_port() -> int:
 def enough(capture: Capture) -> bool:
     return len(capture.messages.get('/world/poses', ())) >= 6 and \
         len(capture.messages.get('/metrics/coherency', ())) >= 3 and \
-        '/world/cue_map' in capture.messages and '/episode' in capture.messages
+        '/world/cue_map' in capture.messages and '/episode' in capture.messages and \
+        '/world/obstacles' in capture.messages
 
 
 @pytest.fixture(scope='module')
@@ -76,3 +77,9 @@ def test_the_client_sees_the_swarm_with_ros2_schemas(watched):
     assert all(0 < value < 4.1 for value in values)  # metres, inside a 2.85 m arena
     status = json.loads(seen.messages['/world/status'][-1][1].data)
     assert status['mode'] == 'lockstep'
+    # The robot markers' log time is their stamp (a marker array has no header of its own).
+    markers = seen.messages['/world/markers']
+    assert markers and all(log_time == msg.markers[0].header.stamp.sec * 10**9
+                           + msg.markers[0].header.stamp.nanosec for log_time, msg in markers)
+    # The world's latched obstacles, repeated for the client: none in this arena.
+    assert all(list(msg.markers) == [] for _, msg in seen.messages['/world/obstacles'])

@@ -137,3 +137,79 @@ def test_an_announcement_is_compared_as_parameters_naming_the_keys(executor, tmp
         assert 'body_radius' not in problem
     finally:
         world.destroy_node()
+
+
+#: One obstacle of each kind, clear of the source at the centre.
+OBSTACLES = {'pillar': [0.9, 0.9, 0.1], 'wall': [2.2, 0.3, 2.26, 1.1],
+             'wedge': [0.3, 2.3, 0.7, 2.5, 0.35, 2.6]}
+
+
+def bag_messages(bag) -> dict[str, list[tuple[int, object]]]:
+    """topic -> [(log time, message)] of a bag, decoded by mcap-ros2-support (a decoder that
+    is not the project's)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    out: dict[str, list[tuple[int, object]]] = {}
+    with open(next(bag.glob('*.mcap')), 'rb') as handle:
+        reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+        for _, channel, message, decoded in reader.iter_decoded_messages():
+            out.setdefault(channel.topic, []).append((message.log_time, decoded))
+    return out
+
+
+def marker_fields(msg) -> list[tuple]:
+    """Every field of a MarkerArray's markers that /world/obstacles fills."""
+    return [(m.ns, m.id, m.type, m.action, m.header.frame_id, m.header.stamp.sec,
+             m.header.stamp.nanosec, m.text, (m.pose.position.x, m.pose.position.y,
+                                              m.pose.position.z),
+             (m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z,
+              m.pose.orientation.w), (m.scale.x, m.scale.y, m.scale.z),
+             (m.color.r, m.color.g, m.color.b, m.color.a),
+             [(p.x, p.y, p.z) for p in m.points]) for m in msg.markers]
+
+
+def test_obstacles_reach_the_metrics_nodes_bag_as_the_embedded_runner_records_them(
+        executor, spin_until, tmp_path):
+    """A lockstep episode among obstacles, recorded by the metrics node in this process: its
+    bag holds the world's /world/obstacles once, at the episode's start, equal to the embedded
+    runner's bag, and the episodes themselves are equal."""
+    from swarm_metrics.metrics_node import MetricsNode
+    from swarm_supervisor.outputs.bag import record_episode
+
+    population, duration, seed = 8, 3.0, 2
+    overrides = [Parameter(f'world.obstacles.{name}', value=values)
+                 for name, values in OBSTACLES.items()]
+    overrides += [Parameter('episode.population', value=population),
+                  Parameter('episode.duration', value=duration),
+                  Parameter('episode.seed', value=seed)]
+    recorders = Parameter('recorders', value='metrics')
+    out = Parameter('output_dir', value=str(tmp_path / 'ros'))
+    context = executor.context
+    world = WorldNode(context=context, parameter_overrides=[*overrides, out, recorders])
+    metrics = MetricsNode(context=context, parameter_overrides=[out])
+    controllers = [ControllerNode(i, context=context, parameter_overrides=overrides)
+                   for i in range(population)]
+    supervisor = Supervisor(context=context, parameter_overrides=[
+        *overrides, out, recorders, Parameter('episodes', value=1)])
+    for node in (world, metrics, *controllers, supervisor):
+        executor.add_node(node)
+    supervisor.run()
+    spin_until(lambda: world.finished.done() and metrics.done.done(),
+               what='the world and the metrics node told to shut down')
+
+    config = SwarmConfig().replace(world={'obstacles': OBSTACLES}, episode={
+        'population': population, 'duration': duration, 'seed': seed})
+    _, closed = record_episode(config, tmp_path / 'embedded')
+    node, embedded = (bag_messages(bag) for bag in (tmp_path / 'ros' / 'episode_0' / 'bag',
+                                                    closed.path))
+    (node_time, node_msg), = node['/world/obstacles']
+    (embedded_time, embedded_msg), = embedded['/world/obstacles']
+    start = json.loads(node['/episode'][0][1].data)['start_ns']
+    assert node_time == start and embedded_time == 0  # at the episode's start
+    assert marker_fields(node_msg) == marker_fields(embedded_msg)
+    assert [(m.id, m.text, m.type) for m in node_msg.markers] == [
+        (0, 'pillar', 3), (1, 'wall', 1), (2, 'wedge', 11)]
+    # The episode ran among them alike in both runners.
+    final = np.load(tmp_path / 'ros' / 'episode_0' / FINAL_FILE)
+    assert np.array_equal(final['poses'], run_episode(config).final_poses)

@@ -16,10 +16,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 # The names are the contract's; re-exported so a node needs one import for name and QoS.
 from mona_controller.contract import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
-                                      CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX, POSES,
-                                      PROXIMITY, RECORDERS, ROBOT_STATES, STATUS, TOPICS,
-                                      WORLD_FRAME, QoS, base_frame, metric_topic,
-                                      robot_namespace, robot_topic, topic_of)
+                                      CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX,
+                                      OBSTACLES, POSES, PROXIMITY, RECORDERS, ROBOT_STATES,
+                                      STATUS, TOPICS, WORLD_FRAME, QoS, base_frame,
+                                      metric_topic, robot_namespace, robot_topic, topic_of)
 
 
 def profile(qos: QoS) -> QoSProfile:
@@ -63,6 +63,7 @@ MAP_QOS = PROFILES[CUE_MAP]  #: the cue map and its grid
 STATUS_QOS = PROFILES[STATUS]
 EPISODE_QOS = PROFILES[EPISODE]
 MARKERS_QOS = PROFILES[MARKERS]
+OBSTACLES_QOS = PROFILES[OBSTACLES]
 RECORDERS_QOS = PROFILES[RECORDERS]
 METRICS_QOS = PROFILES[METRICS_PREFIX]  #: every /metrics/<name>
 

@@ -32,6 +32,7 @@ CLEANING = '/world/cleaning'
 CUE_MAP = '/world/cue_map'
 CUE_GRID = '/world/cue_grid'
 MARKERS = '/world/markers'
+OBSTACLES = '/world/obstacles'
 STATUS = '/world/status'
 ROBOT_STATES = '/world/robot_states'
 EPISODE = '/episode'
@@ -116,6 +117,11 @@ TOPICS: dict[str, Topic] = {topic.name: topic for topic in (
            'the cue raster as an occupancy grid, for map overlays', latched=True, live=True),
     _topic(MARKERS, 'visualization_msgs/msg/MarkerArray', 1, WORLD,
            'one cylinder per robot, coloured by what it does', live=True),
+    # Static scenery: published once, latched (what RViz and Foxglove expect of it); every
+    # bag records it at its episode's start.
+    _topic(OBSTACLES, 'visualization_msgs/msg/MarkerArray', 1, WORLD,
+           "the arena's obstacles, one grey marker each", latched=True, recorded=True,
+           live=True),
     _topic(STATUS, 'std_msgs/msg/String', 1, WORLD, "the world's status (JSON)",
            latched=True, recorded=True, live=True),
     _topic(ROBOT_STATES, 'std_msgs/msg/UInt8MultiArray', 10, EMBEDDED,

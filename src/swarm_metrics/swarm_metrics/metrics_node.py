@@ -104,6 +104,7 @@ class MetricsNode(Node):
             qos.EPISODE: self._on_episode, qos.STATUS: self._on_status,
             qos.POSES: self._on_world, qos.CLEANING: self._on_world,
             qos.CUE_MAP: self._on_world, qos.CLOCK: self.recorder.periodic,
+            qos.OBSTACLES: self._on_obstacles,
             qos.CUE_GRID: self.recorder.stamped, qos.MARKERS: self._on_unstamped,
             qos.GROUND: self.recorder.stamped, qos.PROXIMITY: self.recorder.stamped,
             qos.CMD_VEL: self.recorder.stamped, qos.CLEANER: self._on_unstamped}
@@ -237,6 +238,9 @@ class MetricsNode(Node):
         except BagError as error:
             self.get_logger().error(f'{error}; ignored', throttle_duration_sec=5.0)
         self._close_if_done()
+
+    def _on_obstacles(self, topic: str, data: bytes) -> None:
+        self.recorder.obstacles(data)
 
     def _on_unstamped(self, topic: str, data: bytes) -> None:
         self.recorder.write(topic, self.recorder.now_ns, data)

@@ -18,8 +18,8 @@ import struct
 from pathlib import Path
 from typing import NamedTuple
 
-from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, POSES, STATUS,
-                                      TOPICS, ContractError, WorldState, WorldStatus,
+from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, OBSTACLES, POSES,
+                                      STATUS, TOPICS, ContractError, WorldState, WorldStatus,
                                       metric_topic, topic_of)
 from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
@@ -61,6 +61,7 @@ class Episode:
     last_pose_ns: int = 0
     last_map_ns: int = -1
     running: bool = False  #: the world said it runs the episode
+    obstacles: bool = False  #: the world's /world/obstacles is in the bag
     final: WorldStatus | None = None  #: the world's finished or failed status
     cleaning_stamps: list[int] = dataclasses.field(default_factory=list)  #: sorted
     counted: tuple[int, int] | None = None  #: the world's latest (time_ns, cleaning_events)
@@ -151,6 +152,7 @@ class Recorder:
         self._early: collections.deque[tuple[str, bytes]] = collections.deque()
         self._last_recorded: dict[str, int] = {}  # of the periodic topics
         self._early_status: tuple[WorldStatus, bytes] | None = None
+        self._obstacles: bytes | None = None  # the world's latest /world/obstacles
 
     # --- episodes -------------------------------------------------------------------
 
@@ -197,6 +199,8 @@ class Recorder:
         bag.describe(document)
         bag.write(EPISODE, setup.start_ns, data)
         bag.flush()  # the seed and parameters survive even an immediate SIGKILL
+        if self._obstacles is not None:
+            self._write_obstacles()
         rows = self._samples([self.episode.replica.initial()])
         early, self._early = self._early, collections.deque()
         for topic, message in early:  # what came before the announcement, in order
@@ -321,6 +325,20 @@ class Recorder:
         episode.cleaning += 1
         bisect.insort(episode.cleaning_stamps, stamp)
         return self._confirm_cleaning()
+
+    def obstacles(self, data: bytes) -> None:
+        """A /world/obstacles message: static scenery, published once (latched) by the world.
+
+        It is kept, and every episode's bag records it once, at the episode's start: the one
+        open now (unless it has it already) and each one opened later.
+        """
+        self._obstacles = bytes(data)
+        if self.episode is not None and not self.episode.obstacles:
+            self._write_obstacles()
+
+    def _write_obstacles(self) -> None:
+        self.write(OBSTACLES, self.episode.setup.start_ns, self._obstacles)
+        self.episode.obstacles = True
 
     def periodic(self, topic: str, data: bytes) -> None:
         """Record a /clock or /world/cue_map message: at most one per period, and the one

@@ -16,6 +16,8 @@ import struct
 import numpy as np
 
 from swarm_metrics.bag_writer import TYPESTORE
+from swarm_world import arena_markers
+from swarm_world.arena import Arena
 
 TYPES = TYPESTORE.types
 STRING = 'std_msgs/msg/String'
@@ -143,24 +145,43 @@ def states_from_cdr(data: bytes) -> np.ndarray:
 
 def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):
     """One robot's cylinder marker."""
+    return _any_marker(stamp_ns, 'robots', robot, 3, (x, y, MARKER_HEIGHT / 2),  # CYLINDER
+                       (2 * body_radius, 2 * body_radius, MARKER_HEIGHT), colour)
+
+
+def _any_marker(stamp_ns: int, namespace: str, marker_id: int, kind: int,
+                position: tuple[float, float, float], scale: tuple[float, float, float],
+                colour: tuple, points: tuple = (), text: str = ''):
+    """A visualization_msgs/Marker (action ADD, identity orientation, frame world)."""
     point, quaternion = TYPES['geometry_msgs/msg/Point'], TYPES['geometry_msgs/msg/Quaternion']
+    x, y, z = position
     return TYPES['visualization_msgs/msg/Marker'](
-        header=_header(stamp_ns), ns='robots', id=robot, type=3, action=0,  # CYLINDER, ADD
+        header=_header(stamp_ns), ns=namespace, id=marker_id, type=kind, action=0,  # ADD
         pose=TYPES['geometry_msgs/msg/Pose'](
-            position=point(x=x, y=y, z=MARKER_HEIGHT / 2),
+            position=point(x=x, y=y, z=z),
             orientation=quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
-        scale=TYPES['geometry_msgs/msg/Vector3'](x=2 * body_radius, y=2 * body_radius,
-                                                 z=MARKER_HEIGHT),
+        scale=TYPES['geometry_msgs/msg/Vector3'](x=scale[0], y=scale[1], z=scale[2]),
         color=TYPES['std_msgs/msg/ColorRGBA'](r=colour[0], g=colour[1], b=colour[2],
                                               a=colour[3]),
         lifetime=TYPES['builtin_interfaces/msg/Duration'](sec=0, nanosec=0),
-        frame_locked=False, points=[], colors=[], texture_resource='',
+        frame_locked=False, points=[point(x=px, y=py, z=pz) for px, py, pz in points],
+        colors=[], texture_resource='',
         texture=TYPES['sensor_msgs/msg/CompressedImage'](
             header=_header(0, ''), format='', data=np.zeros(0, dtype=np.uint8)),
-        uv_coordinates=[], text='', mesh_resource='',
+        uv_coordinates=[], text=text, mesh_resource='',
         mesh_file=TYPES['visualization_msgs/msg/MeshFile'](
             filename='', data=np.zeros(0, dtype=np.uint8)),
         mesh_use_embedded_materials=False)
+
+
+def obstacles_cdr(arena: Arena) -> bytes:
+    """visualization_msgs/MarkerArray ``/world/obstacles``: one grey marker per obstacle of
+    ``arena`` (:mod:`swarm_world.arena_markers`), stamp 0; no obstacles, no markers. Built
+    from the same marker data as the world node's message."""
+    markers = [_any_marker(0, arena_markers.NAMESPACE, data.id, data.type, data.position,
+                           data.scale, arena_markers.COLOUR, data.points, data.text)
+               for data in arena_markers.obstacle_markers(arena)]
+    return serialize(TYPES[MARKER_ARRAY](markers=markers), MARKER_ARRAY)
 
 
 # Sentinels that locate the varying fields of a serialized marker (see _marker_layout).

@@ -1,5 +1,5 @@
 """Conversions of the world's own topics (docs/interfaces.md, "World"): poses, cue map and
-grid, robot markers. The per-robot messages are :mod:`mona_controller.messages`.
+grid, robot and obstacle markers. The per-robot messages are :mod:`mona_controller.messages`.
 """
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import array
 
 import numpy as np
-from geometry_msgs.msg import Pose, PoseArray
+from geometry_msgs.msg import Point, Pose, PoseArray
 from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import Image
 from std_msgs.msg import ColorRGBA
@@ -15,6 +15,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mona_controller.contract import WORLD_FRAME
 from mona_controller.messages import ns_to_stamp, set_stamp
+from swarm_world import arena_markers
+from swarm_world.arena import Arena
 from swarm_world.frames import poses_from_rows, yaw_to_quaternion
 
 MARKER_HEIGHT = 0.05  # m, the drawn height of a robot cylinder
@@ -107,5 +109,25 @@ def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
         marker.scale.x = marker.scale.y = 2 * body_radius
         marker.scale.z = MARKER_HEIGHT
         marker.color = red if k < len(cleaning) and cleaning[k] else green
+        out.markers.append(marker)
+    return out
+
+
+def obstacle_markers(arena: Arena) -> MarkerArray:
+    """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.arena_markers`),
+    stamp 0; no obstacles, no markers."""
+    out = MarkerArray()
+    colour = ColorRGBA(r=arena_markers.COLOUR[0], g=arena_markers.COLOUR[1],
+                       b=arena_markers.COLOUR[2], a=arena_markers.COLOUR[3])
+    for data in arena_markers.obstacle_markers(arena):
+        marker = Marker(ns=arena_markers.NAMESPACE, id=data.id, type=data.type,
+                        action=arena_markers.ADD, text=data.text)
+        marker.header.frame_id = arena_markers.FRAME
+        (marker.pose.position.x, marker.pose.position.y,
+         marker.pose.position.z) = data.position
+        marker.pose.orientation.w = 1.0
+        marker.scale.x, marker.scale.y, marker.scale.z = data.scale
+        marker.color = colour
+        marker.points = [Point(x=x, y=y, z=z) for x, y, z in data.points]
         out.markers.append(marker)
     return out

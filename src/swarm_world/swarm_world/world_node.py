@@ -5,7 +5,8 @@ Messages in, two pure cores, messages out: :class:`~swarm_world.world.World` is 
 misses, absent robots). On each ``/episode`` announcement the node resets the world, waits for
 every robot's controller and every recorder, then steps in lockstep or realtime. It publishes
 /clock, the ground-truth poses, the cleaning events, the cue map and grid, robot markers and
-/world/status, and with ``output_dir`` writes each episode's final state.
+/world/status, once (latched) its obstacles, and with ``output_dir`` writes each episode's
+final state.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
-from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, robot_markers
+from swarm_world.world_messages import (PoseArrayFiller, cue_grid, cue_image, obstacle_markers,
+                                        robot_markers)
 
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.
@@ -123,6 +125,11 @@ class WorldNode(Node):
         self.map_pub = self.create_publisher(Image, qos.CUE_MAP, qos.MAP_QOS)
         self.grid_pub = self.create_publisher(OccupancyGrid, qos.CUE_GRID, qos.MAP_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, qos.MARKERS, qos.MARKERS_QOS)
+        # Static scenery, latched: the arena is the node's for its lifetime (an announcement
+        # with other world parameters is rejected), so once is enough for every episode.
+        self.obstacles_pub = self.create_publisher(MarkerArray, qos.OBSTACLES,
+                                                   qos.OBSTACLES_QOS)
+        self.obstacles_pub.publish(obstacle_markers(self.world.arena))
         self.status_pub = self.create_publisher(String, qos.STATUS, qos.STATUS_QOS)
         self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
         self.recorders = RecorderBook(recorder_names(self.options.recorders))

@@ -28,13 +28,14 @@ from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
 from mona_controller import topics
-from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS, POSES,
-                                      ROBOT_STATES, STATUS, Announcement, WorldState,
+from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS, OBSTACLES,
+                                      POSES, ROBOT_STATES, STATUS, Announcement, WorldState,
                                       WorldStatus, metric_topic)
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.world_cdr import (clock_cdr, cue_grid_cdr, cue_image_cdr, float64_cdr,
-                                     markers_cdr, pose_array_cdr, states_cdr, string_cdr)
+                                     markers_cdr, obstacles_cdr, pose_array_cdr, states_cdr,
+                                     string_cdr)
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
@@ -60,7 +61,8 @@ def live_topics() -> dict[str, str]:
     """Every topic the live view may carry, with its type: the contract's live topics
     (:func:`mona_controller.topics.live`: the bag's topics less the cleaning events, which the
     cue map shows, plus the cue grid and the robot markers, a 3D view of the cue and of the
-    robots coloured by state), one ``/metrics/<name>`` per metric of the table now."""
+    robots coloured by state, and the obstacles), one ``/metrics/<name>`` per metric of the
+    table now."""
     return {name: topic.type
             for name, topic in topics.expand(topics.live(), metric_names()).items()}
 
@@ -157,6 +159,7 @@ class LiveView(EpisodeObserver):
         self.map_period = 1.0 / map_rate
         self.start_ns = start_ns
         self.announcement = b''
+        self.obstacles = b''
         self.status = b''
         self.cleaning_events = 0
         self._next_frame = self._next_map = self._next_repeat = self._next_slow = 0.0
@@ -179,6 +182,7 @@ class LiveView(EpisodeObserver):
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
             parameters=config.to_dict()).to_json())
+        self.obstacles = obstacles_cdr(episode.world.arena)
         if self.pacer is not None:
             self.pacer.start(episode)
         self._status(episode, WorldState.RUNNING)
@@ -239,9 +243,10 @@ class LiveView(EpisodeObserver):
                 world.cue, episode.config.world.cell_size, now_ns))
         if force or wall >= self._next_repeat:
             # Topics Foxglove shows as state, sent again so a client that connects late has
-            # them (the bags' latched topics).
+            # them (the bags' latched topics: the announcement, the static obstacles).
             self._next_repeat = wall + REPEAT_PERIOD
             server.publish(EPISODE, self.start_ns, self.announcement)
+            server.publish(OBSTACLES, self.start_ns, self.obstacles)  # as the bag has it
 
     def _status(self, episode: Episode, state: WorldState) -> None:
         if not self.server.wanted(STATUS):

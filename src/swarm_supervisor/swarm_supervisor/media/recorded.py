@@ -1,5 +1,5 @@
-"""An episode as its bag recorded it, read for a video: poses, states, cleaning, cue maps and
-metrics, in ns from the episode's start (either runner's bag)."""
+"""An episode as its bag recorded it, read for a video: poses, states, cleaning, cue maps,
+metrics and obstacles, in ns from the episode's start (either runner's bag)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.contract import (CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES,
-                                      ROBOT_STATES, STATUS)
+from mona_controller.contract import (CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, OBSTACLES,
+                                      POSES, ROBOT_STATES, STATUS)
 from swarm_metrics.analysis import AnnouncementError, EpisodeSetup
 from swarm_metrics.bag_reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
 from swarm_metrics.world_cdr import states_from_cdr
+from swarm_world.arena import Obstacle
+from swarm_world.arena_markers import obstacles_from_markers
 
 
 class AnimateError(Exception):
@@ -31,6 +33,8 @@ class Record:
     cleaning: list[tuple[int, np.ndarray]]  #: (time, poses of the cleaners)
     cue_maps: list[tuple[int, np.ndarray]]  #: the recorded cue maps (uint8, core order)
     metrics: dict[str, tuple[np.ndarray, np.ndarray]]  #: name -> (times, values)
+    #: The shapes of the bag's /world/obstacles (none recorded: none)
+    obstacles: tuple[Obstacle, ...] = ()
 
     @property
     def duration_ns(self) -> int:
@@ -67,6 +71,7 @@ def read_record(path: str | Path) -> Record:
     runner = None
     times, poses, state_times, states, cleaning, maps = [], [], [], [], [], []
     metrics: dict[str, list[tuple[int, float]]] = {}
+    obstacles = None
     for message in McapScan(mcap):
         topic = message.topic
         if topic == POSES:
@@ -82,6 +87,8 @@ def read_record(path: str | Path) -> Record:
         elif topic.startswith(METRICS_PREFIX):
             metrics.setdefault(topic[len(METRICS_PREFIX):], []).append(
                 (message.log_time, float(decode(message).data)))
+        elif topic == OBSTACLES and obstacles is None:
+            obstacles = obstacles_from_markers(decode(message).markers)
         elif topic == STATUS and runner is None:
             runner = decode_json(message).get('mode')  # one status tells
         elif topic == EPISODE and setup is None:
@@ -110,5 +117,6 @@ def read_record(path: str | Path) -> Record:
         cleaning=sorted(((t - start, p) for t, p in cleaning), key=lambda e: e[0]),
         cue_maps=[(t - start, m) for t, m in sorted(maps, key=lambda e: e[0])],
         metrics={name: (np.array([t - start for t, _ in rows], dtype=np.int64),
-                        np.array([v for _, v in rows])) for name, rows in metrics.items()})
+                        np.array([v for _, v in rows])) for name, rows in metrics.items()},
+        obstacles=obstacles or ())
 

@@ -29,8 +29,8 @@ from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, POSES, ROBOT_STA
 from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder
-from swarm_metrics.world_cdr import (clock_cdr, cue_image_cdr, pose_array_cdr, states_cdr,
-                                     string_cdr)
+from swarm_metrics.world_cdr import (clock_cdr, cue_image_cdr, obstacles_cdr, pose_array_cdr,
+                                     states_cdr, string_cdr)
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult, run_episode
@@ -138,6 +138,8 @@ class BagRecorder(EpisodeObserver):
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
             parameters=config.to_dict())
         try:
+            # The world node's latched scenery reaches the metrics node before any episode.
+            self.recorder.obstacles(obstacles_cdr(world.arena))
             self._take(self.recorder.announce(string_cdr(announcement.to_json())).rows)
             self._status(episode, WorldState.WAITING)
             self.recorder.periodic(CLOCK, clock_cdr(self.start_ns))

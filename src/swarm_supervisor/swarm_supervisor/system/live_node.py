@@ -5,9 +5,9 @@ as raw CDR (the bytes the metrics node records) and forwards them to a
 :class:`~swarm_supervisor.media.live.LiveServer`, so Foxglove decodes them with their own ROS 2
 definitions and the live view equals the bag. The frequent topics are thinned to what a
 person can watch (poses, markers and clock at most ``rate`` per wall second, the cue map and
-grid ``map_rate``); the announcement and the latest status are repeated once a second for a
-client that connects late. Exit status: 0 after the supervisor's shutdown announcement or
-SIGINT/SIGTERM, 2 for a bad parameter or a port it cannot listen on.
+grid ``map_rate``); the announcement, the latest status and the obstacles are repeated once a
+second for a client that connects late. Exit status: 0 after the supervisor's shutdown
+announcement or SIGINT/SIGTERM, 2 for a bad parameter or a port it cannot listen on.
 
     python -m swarm_supervisor.system.live_node --ros-args -p port:=8765
 """
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import struct
 import sys
 import time
 
@@ -32,6 +33,17 @@ from mona_controller.shutdown import teardown
 from mona_controller.topics import EMBEDDED
 from swarm_metrics.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
+
+
+def message_stamp(topic: str, data: bytes) -> int:
+    """The sim time (ns) a forwarded message describes: its header's stamp; a marker array
+    has no header, so its first marker's (the robot markers all share one stamp)."""
+    if topic == qos.MARKERS:
+        if len(data) < 16:
+            return 0  # no markers
+        sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 8)
+        return sec * 1_000_000_000 + nanosec
+    return stamp_ns(data)
 
 
 def node_topics() -> dict[str, str]:
@@ -80,10 +92,12 @@ class LiveNode(Node):
                              qos.CUE_MAP: map_period, qos.CUE_GRID: map_period}
         self.last_sent: dict[str, float] = {}
         self.sim_ns = 0  # the latest sim time seen: the log time of unstamped messages
-        self.latched: dict[str, bytes] = {}  # the announcement and the latest status
-        # The announcement and the status are kept for late joiners; a metric sample has no
-        # stamp; every other topic forwarded is stamped.
-        handlers = {qos.EPISODE: self._on_episode, qos.STATUS: self._on_status}
+        #: The announcement, the latest status and the obstacles (the world's latched scenery).
+        self.latched: dict[str, bytes] = {}
+        # The latched topics are kept for late joiners; a metric sample has no stamp; every
+        # other topic forwarded is stamped.
+        handlers = {qos.EPISODE: self._on_episode, qos.STATUS: self._on_latched,
+                    qos.OBSTACLES: self._on_latched}
         for topic, msgtype in forwarded.items():
             handler = handlers.get(topic) or (
                 self._on_unstamped if qos.topic_of(topic).per_metric else self._on_stamped)
@@ -109,7 +123,7 @@ class LiveNode(Node):
         return True
 
     def _on_stamped(self, topic: str, data: bytes) -> None:
-        stamp = stamp_ns(data)
+        stamp = message_stamp(topic, data)
         if stamp > self.sim_ns:
             self.sim_ns = stamp
             self.server.set_time(stamp)
@@ -121,7 +135,7 @@ class LiveNode(Node):
         # sim time is that pose's, within a sample period of the sample's own time.
         self.server.publish(topic, self.sim_ns, bytes(data))
 
-    def _on_status(self, topic: str, data: bytes) -> None:
+    def _on_latched(self, topic: str, data: bytes) -> None:
         self.latched[topic] = bytes(data)
         self.server.publish(topic, self.sim_ns, bytes(data))
 
@@ -136,7 +150,7 @@ class LiveNode(Node):
         self.server.publish(topic, int(document.get('start_ns', self.sim_ns)), bytes(data))
 
     def _repeat(self) -> None:
-        """The announcement and the latest status again, for clients that joined since."""
+        """The latched topics again, for clients that joined since."""
         for topic, data in self.latched.items():
             self.server.publish(topic, self.sim_ns, data)
 
