@@ -6,7 +6,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from swarm_supervisor.analysis import figures
+from swarm_supervisor.analysis import beyond_figures, figures
 
 from swarm_supervisor import study
 from swarm_supervisor.cli import main
@@ -44,9 +44,9 @@ def test_per_source_metrics_reach_the_table_and_are_not_factors(leaks_study):
     assert (end['mean_cue_fraction'] > 2 ** (-20 / 100) + 0.02).all()
 
 def test_the_per_source_figure_is_drawn_and_named_in_the_report(leaks_study):
-    assert (leaks_study / figures.FIG_SOURCES).stat().st_size > 10_000
+    assert (leaks_study / beyond_figures.FIG_SOURCES).stat().st_size > 10_000
     report = (leaks_study / 'report.md').read_text()
-    assert 'Cue near each source' in report and figures.FIG_SOURCES in report
+    assert 'Cue near each source' in report and beyond_figures.FIG_SOURCES in report
 
 
 def test_a_one_source_study_draws_no_per_source_figure(tmp_path):
@@ -54,4 +54,4 @@ def test_a_one_source_study_draws_no_per_source_figure(tmp_path):
                           'mean_cue': [1.0], 'mean_cue_fraction': [1.0],
                           'ratio_near_source': [0.0], 'coherency': [1.0]})
     with pytest.raises(figures.FigureSkipped):
-        figures.fig_sources(table, tmp_path / 'x.png')
+        beyond_figures.fig_sources(table, tmp_path / 'x.png')

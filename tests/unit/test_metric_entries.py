@@ -184,7 +184,7 @@ def test_an_added_metric_is_in_metrics_csv_the_bag_analyze_and_the_checks(
 
 def test_an_added_metric_reaches_the_views_the_claims_and_the_figures(
         registered: Metric, tmp_path: Path):
-    from swarm_supervisor.analysis import claims, figures
+    from swarm_supervisor.analysis import beyond_figures, claims, figures
     from swarm_supervisor.media import live
     from swarm_supervisor.outputs import bag
 
@@ -204,8 +204,8 @@ def test_an_added_metric_reaches_the_views_the_claims_and_the_figures(
                            'ratio_near_source': 0.5, 'coherency': 1.0,
                            NAME: 100.0 + n * time + s}
                           for n in (10, 30) for s in (1, 2) for time in t])
-    assert figures.extra_metrics(table) == [NAME]
+    assert beyond_figures.extra_metrics(table) == [NAME]
     assert [label for label, _ in figures.variants(table)] == ['']  # a metric is no factor
-    path = tmp_path / figures.FIG_METRIC.format(NAME)
-    assert figures.fig_metric(table, path, NAME) == ''
+    path = tmp_path / beyond_figures.FIG_METRIC.format(NAME)
+    assert beyond_figures.fig_metric(table, path, NAME) == ''
     assert path.stat().st_size > 10_000

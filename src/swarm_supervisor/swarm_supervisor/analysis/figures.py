@@ -1,6 +1,5 @@
 """The paper's figures 3-6 from the study's tidy table (and, for fig. 3, cue-map snapshots),
-and one figure per metric beyond the paper's (:func:`fig_metric`, for each metric of
-``swarm_metrics.metrics.METRICS`` with a plot label that the table has).
+and the plotting parts the figures beyond the paper's share (:mod:`.beyond_figures`).
 
 A design with extra factors (``study.factors``) gets one panel per factor level in figures
 4-6 (:func:`variants`); the paper's layout is kept otherwise.
@@ -22,8 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from swarm_metrics.metrics import (METRICS, PAPER_METRICS, SOURCE_COLUMNS,  # noqa: E402
-                                   source_names)
+from swarm_metrics.metrics import METRICS  # noqa: E402
 from swarm_supervisor.outputs.pictures import draw_cue_map  # noqa: E402
 from swarm_supervisor.study.table import design_factors  # noqa: E402
 
@@ -31,10 +29,6 @@ FIG3 = 'fig3_cue_maps.png'
 FIG4 = 'fig4_mean_cue.png'
 FIG5 = 'fig5_ratio_near_source.png'
 FIG6 = 'fig6_coherency.png'
-#: Drawn when the episodes have several sources (docs/model.md "Leaks beyond the paper").
-FIG_SOURCES = 'fig_sources.png'
-#: The figure of a metric beyond the paper's (its name filled in).
-FIG_METRIC = 'fig_metric_{}.png'
 
 #: The paper's levels: fig. 3 at N = 30, figs. 5 and 6 at N = 10, 30, 50, both at 8 cm/s.
 PAPER_SPEED = 0.08
@@ -94,7 +88,7 @@ def over_seeds(table: pd.DataFrame, column: str) -> pd.DataFrame:
     return grouped.agg(['median', 'min', 'max']).reset_index()
 
 
-def _colours(populations: Sequence[int]) -> dict[int, tuple]:
+def colours(populations: Sequence[int]) -> dict[int, tuple]:
     """One colour per population, light to dark with N, the same in every figure."""
     cmap = plt.get_cmap('viridis')
     levels = sorted(populations)
@@ -112,7 +106,7 @@ def _substitution(populations: Sequence[int], speed: float) -> str:
     return '; '.join(notes)
 
 
-def _finish(fig, path: str | Path) -> None:
+def finish(fig, path: str | Path) -> None:
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
 
@@ -153,7 +147,7 @@ def fig3_cue_maps(snapshots: Mapping[str, np.ndarray], path: str | Path, *, popu
     fig.suptitle(f'Fig. 3  Cue map and robots (white discs, red tick = heading): '
                  f'N = {population}, {speed_label(speed)}, seed {seed}'
                  + (f'\n{"; ".join(notes)}' if notes else ''))
-    _finish(fig, path)
+    finish(fig, path)
     return '; '.join(notes)
 
 
@@ -183,7 +177,7 @@ def variants(table: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     return out
 
 
-def _grid(panels: int, columns: int, size: tuple[float, float], **options):
+def grid(panels: int, columns: int, size: tuple[float, float], **options):
     """A figure with ``panels`` axes in rows of ``columns``; unused axes are hidden."""
     columns = max(1, min(columns, panels))
     rows = -(-panels // columns)
@@ -195,7 +189,7 @@ def _grid(panels: int, columns: int, size: tuple[float, float], **options):
     return fig, flat[:panels]
 
 
-def _from_zero(axes: list) -> None:
+def from_zero(axes: list) -> None:
     """Start the y axes at 0 once every panel is drawn: fixed any earlier, a shared axis would
     keep the first panel's top and clip the others (a leaking source's cue rises above it)."""
     for ax in axes:
@@ -211,10 +205,10 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
     """
     speeds = sorted(table['speed'].unique(), reverse=True)  # the paper: (a) 8, (b) 4 cm/s
     facets = variants(table)
-    colours = _colours(table['population'].unique())
+    palette = colours(table['population'].unique())
     faceted = len(facets) > 1
     size = (4.2, 3.2) if faceted else (6.2, 4.6)
-    fig, axes = _grid(len(facets) * len(speeds), len(speeds) * (2 if faceted else 1), size,
+    fig, axes = grid(len(facets) * len(speeds), len(speeds) * (2 if faceted else 1), size,
                       sharey=True)
     panels = [(label, rows, speed) for label, rows in facets for speed in speeds]
     for k, (ax, (label, rows, speed)) in enumerate(zip(axes, panels)):
@@ -222,7 +216,7 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
         for n in sorted(stats['population'].unique(), reverse=True):
             curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
             if len(curve):
-                ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
+                ax.plot(curve['t'], curve['median'], color=palette[n], linewidth=1.6,
                         label=f'N = {n}')
         letter = f'({chr(ord("a") + k)}) ' if k < 26 else ''
         ax.set_title(f'{letter}v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
@@ -240,99 +234,11 @@ def fig4_mean_cue(table: pd.DataFrame, path: str | Path, *, initial_mean: float)
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel('arena mean cue (0..255)' if faceted else
                           'arena mean cue (intensity units, 0..255)')
-    _from_zero(axes)
+    from_zero(axes)
     fig.suptitle(f'Fig. 4  Mean cue vs time (median over {seeds_label(table)})')
-    _finish(fig, path)
+    finish(fig, path)
     return '' if list(speeds) == [0.08, 0.04] else \
         'speeds ' + ', '.join(map(speed_label, speeds)) + ' (the paper: 8 and 4 cm/s)'
-
-
-def fig_sources(table: pd.DataFrame, path: str | Path) -> str:
-    """Each source's share of the initial cue vs time (``mean_cue_fraction_<name>``), one
-    curve per N (median over seeds), one panel per source and speed (and per level of the
-    design's extra factors). Returns a note ('' when there is nothing to add)."""
-    names = source_names(list(table.columns))
-    if not names:
-        raise FigureSkipped('the episodes have one source')
-    speeds = sorted(table['speed'].unique(), reverse=True)
-    facets = variants(table)
-    colours = _colours(table['population'].unique())
-    panels = [(name, label, rows, speed) for label, rows in facets for name in names
-              for speed in speeds]
-    fig, axes = _grid(len(panels), len(names) * len(speeds), (4.2, 3.2), sharey=True)
-    for k, (ax, (name, label, rows, speed)) in enumerate(zip(axes, panels)):
-        column = SOURCE_COLUMNS[0].format(name)
-        stats = over_seeds(rows, column)
-        for n in sorted(stats['population'].unique(), reverse=True):
-            curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
-            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
-                    label=f'N = {n}')
-        ax.set_title(f'({chr(ord("a") + k) if k < 26 else "-"}) source {name!r}, '
-                     f'v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
-                     fontsize='small')
-        ax.set_xlabel('time (s)')
-        ax.set_xlim(0, table['t'].max())
-        ax.grid(alpha=0.3)
-        if ax.get_subplotspec().is_first_col():
-            ax.set_ylabel('cue in its region\n(fraction of the initial total)')
-    _from_zero(axes)
-    axes[0].legend(title='robots', fontsize='small')
-    fig.suptitle('Cue near each source: the cells nearer to it than to any other, where the '
-                 f'sources are (median over {seeds_label(table)})')
-    _finish(fig, path)
-    return ''
-
-
-def extra_metrics(table: pd.DataFrame) -> list[str]:
-    """The metrics beyond the paper's that have a plot label and a column in ``table``, in
-    table order: each gets a :func:`fig_metric`."""
-    return [name for name, metric in METRICS.items() if name not in PAPER_METRICS
-            and metric.label is not None and name in table.columns]
-
-
-def fig_metric(table: pd.DataFrame, path: str | Path, name: str) -> str:
-    """A metric beyond the paper's vs time: one curve per N (median over seeds, band: min to
-    max), one panel per speed (and per level of the design's extra factors, :func:`variants`),
-    the y axis labelled by the metric's entry. Returns a note ('' when there is nothing to
-    add).
-
-    Raises:
-        FigureSkipped: ``table`` has no column ``name``.
-    """
-    if name not in table.columns:
-        raise FigureSkipped(f'the table has no column {name}')
-    metric = METRICS[name]
-    speeds = sorted(table['speed'].unique(), reverse=True)
-    facets = variants(table)
-    colours = _colours(table['population'].unique())
-    panels = [(label, rows, speed) for label, rows in facets for speed in speeds]
-    fig, axes = _grid(len(panels), len(speeds) * (2 if len(facets) > 1 else 1), (5.2, 3.6),
-                      sharey=True)
-    for k, (ax, (label, rows, speed)) in enumerate(zip(axes, panels)):
-        stats = over_seeds(rows, name)
-        for n in sorted(stats['population'].unique(), reverse=True):
-            curve = stats[(stats['speed'] == speed) & (stats['population'] == n)]
-            ax.fill_between(curve['t'], curve['min'], curve['max'], color=colours[n],
-                            alpha=0.25, linewidth=0)
-            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
-                    label=f'N = {n}')
-        letter = f'({chr(ord("a") + k)}) ' if k < 26 else ''
-        ax.set_title(f'{letter}v = {speed_label(speed)}' + (f'\n{label}' if label else ''),
-                     fontsize='small')
-        ax.set_xlabel('time (s)')
-        ax.set_xlim(0, table['t'].max())
-        ax.grid(alpha=0.3)
-        if ax.get_subplotspec().is_first_col():
-            ax.set_ylabel(metric.label or name)
-    if not metric.unit:
-        for ax in axes:
-            ax.set_ylim(0, 1.02)
-    else:
-        _from_zero(axes)
-    axes[0].legend(title='robots', fontsize='small')
-    fig.suptitle(f'{metric.doc} (median and min-max over {seeds_label(table)})')
-    _finish(fig, path)
-    return ''
 
 
 def _three_populations(table: pd.DataFrame) -> tuple[pd.DataFrame, list[int], float, str]:
@@ -348,7 +254,7 @@ def _facet_grid(chosen: pd.DataFrame):
     extra factors); returns (variants, faceted?, figure, axes)."""
     facets = variants(chosen)
     faceted = len(facets) > 1
-    fig, axes = _grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
+    fig, axes = grid(len(facets), 4, (4.2, 3.2) if faceted else (7.5, 4.6), sharey=True)
     return facets, faceted, fig, axes
 
 
@@ -373,7 +279,7 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
     chosen, populations, speed, note = _three_populations(table)
     if smooth is None:
         smooth = float(chosen['t'].max()) / 200
-    colours = _colours(table['population'].unique())
+    palette = colours(table['population'].unique())
     facets, faceted, fig, axes = _facet_grid(chosen)
     for ax, (label, rows) in zip(axes, facets):
         stats = over_seeds(rows, 'ratio_near_source')
@@ -382,7 +288,7 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
             step = float(np.median(np.diff(curve['t']))) if len(curve) > 1 else 1.0
             window = max(1, int(round(smooth / step)))
             line = curve['median'].rolling(window, center=True, min_periods=1).mean()
-            ax.plot(curve['t'], line, color=colours[n], linewidth=1.6, label=f'N = {n}')
+            ax.plot(curve['t'], line, color=palette[n], linewidth=1.6, label=f'N = {n}')
         ax.set_xlabel('time (s)')
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel(f'fraction within {source_radius:g} m of the source')
@@ -396,7 +302,7 @@ def fig5_ratio_near_source(table: pd.DataFrame, path: str | Path, *, source_radi
              f'median over {seeds_label(chosen)}, {smooth:.3g}-s moving average'
              + (f'\n{note}' if note else ''))
     _place_title(fig, axes, title, faceted)
-    _finish(fig, path)
+    finish(fig, path)
     return note
 
 
@@ -404,15 +310,15 @@ def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
     """Median coherency vs time with a min-max band over seeds, N = 10, 30, 50 at 8 cm/s
     (one panel per level of the design's extra factors, :func:`variants`)."""
     chosen, populations, speed, note = _three_populations(table)
-    colours = _colours(table['population'].unique())
+    palette = colours(table['population'].unique())
     facets, faceted, fig, axes = _facet_grid(chosen)
     for ax, (label, rows) in zip(axes, facets):
         stats = over_seeds(rows, 'coherency')
         for n in sorted(populations, reverse=True):
             curve = stats[stats['population'] == n].sort_values('t')
-            ax.fill_between(curve['t'], curve['min'], curve['max'], color=colours[n],
+            ax.fill_between(curve['t'], curve['min'], curve['max'], color=palette[n],
                             alpha=0.25, linewidth=0)
-            ax.plot(curve['t'], curve['median'], color=colours[n], linewidth=1.6,
+            ax.plot(curve['t'], curve['median'], color=palette[n], linewidth=1.6,
                     label=f'N = {n} (median; band: min-max)')
         ax.set_xlabel('time (s)')
         if ax.get_subplotspec().is_first_col():
@@ -421,10 +327,10 @@ def fig6_coherency(table: pd.DataFrame, path: str | Path) -> str:
         ax.grid(alpha=0.3)
         if faceted:
             ax.set_title(label, fontsize='small')
-    _from_zero(axes)
+    from_zero(axes)
     axes[0].legend(title='robots', fontsize='small')
     title = (f'Fig. 6  Coherency (lower = tighter swarm), v = {speed_label(speed)}\n'
              f'median and min-max over {seeds_label(chosen)}' + (f'\n{note}' if note else ''))
     _place_title(fig, axes, title, faceted)
-    _finish(fig, path)
+    finish(fig, path)
     return note

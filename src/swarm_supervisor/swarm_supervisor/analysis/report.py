@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from swarm_supervisor.analysis import anova as anova_tables
+from swarm_supervisor.analysis import beyond_figures
 from swarm_supervisor.analysis import checks
 from swarm_supervisor.analysis import claims as claim_checks
 from swarm_supervisor.analysis import figures
@@ -118,17 +119,17 @@ def make_figures(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     drawn.append(Figure('Fig. 6: coherency', figures.FIG6,
                         figures.fig6_coherency(table, out / figures.FIG6)))
     if source_names(list(table.columns)):
-        drawn.append(Figure('Cue near each source', figures.FIG_SOURCES,
-                            figures.fig_sources(table, out / figures.FIG_SOURCES)))
+        drawn.append(Figure('Cue near each source', beyond_figures.FIG_SOURCES,
+                            beyond_figures.fig_sources(table, out / beyond_figures.FIG_SOURCES)))
     else:  # never leave an earlier design's figure beside these results
-        (out / figures.FIG_SOURCES).unlink(missing_ok=True)
-    extra = figures.extra_metrics(table)
+        (out / beyond_figures.FIG_SOURCES).unlink(missing_ok=True)
+    extra = beyond_figures.extra_metrics(table)
     for name in extra:
-        file = figures.FIG_METRIC.format(name)
+        file = beyond_figures.FIG_METRIC.format(name)
         drawn.append(Figure(f'{name}: {METRICS[name].doc}', file,
-                            figures.fig_metric(table, out / file, name)))
-    for stale in out.glob(figures.FIG_METRIC.format('*')):  # a metric no longer drawn
-        if stale.name not in {figures.FIG_METRIC.format(name) for name in extra}:
+                            beyond_figures.fig_metric(table, out / file, name)))
+    for stale in out.glob(beyond_figures.FIG_METRIC.format('*')):  # a metric no longer drawn
+        if stale.name not in {beyond_figures.FIG_METRIC.format(name) for name in extra}:
             stale.unlink()
     return drawn
 
