@@ -24,7 +24,7 @@ SRC = Path(__file__).resolve().parents[2] / 'src'
 #: The packages, bottom first: each may import only those before it.
 PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor')
 #: swarm_supervisor's layers, bottom first; the names of one layer are siblings.
-SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs',), ('media',),
+SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs', 'envs'), ('media',),
                      ('study',), ('analysis', 'system'), ('calibration',), ('cli',))
 #: The ROS adapters: the modules that may import rclpy and the message packages.
 ADAPTERS = {

@@ -130,14 +130,17 @@ class Batch:
         if self.active[0].steps_done % self._control_steps == 0:  # members step together
             ground, ranges, is_robot = self.sense()
             self._held = self.controller.step(ground, ranges, is_robot, self._now())
-        return self._advance(self._held)
+        return self.drive(self._held)
 
     def _now(self) -> np.ndarray:
         """Each running robot's sim time (s): its episode's ``time_ns / 1e9``."""
         return np.repeat([member.world.time_ns / 1e9 for member in self.active],
                          self._counts)
 
-    def _advance(self, command: Command) -> list[tuple[Episode, Step]]:
+    def drive(self, command: Command) -> list[tuple[Episode, Step]]:
+        """Drive every running robot's wheels with ``command`` (rows as :meth:`sense`) and
+        step every running episode once, without asking the controllers; as :meth:`step`,
+        episodes that are done after it leave the batch."""
         linear, angular = wheels_to_twist(command.wheels, self._twist)
         before = [member.world.time_ns for member in self.active]
         self.worlds.step(linear, angular, command.cleaner)
@@ -164,7 +167,7 @@ class Batch:
             t2 = clock()
             self._held = self.controller.step(ground, ranges, is_robot, self._now())
             t3 = clock()
-        steps = self._advance(self._held)
+        steps = self.drive(self._held)
         t4 = clock()
         spent['ground sensors'] += t1 - t0
         spent['IR sensors'] += t2 - t1

@@ -123,10 +123,12 @@ class Episode:
             readings = world.sense()
             self.command = self.controllers.step(readings.ground, readings.ranges,
                                                  readings.is_robot, readings.now)
-        return self._advance(self.command)
+        return self.drive(self.command)
 
-    def _advance(self, command: Command) -> Step:
-        """Drive the wheels with ``command`` and step the world."""
+    def drive(self, command: Command) -> Step:
+        """Drive the wheels with ``command`` and step the world once, without asking the
+        controllers (:meth:`step` asks them, then drives; a learning environment drives with
+        its agents' actions, :mod:`swarm_supervisor.envs`)."""
         world = self.world
         linear, angular = wheels_to_twist(command.wheels, self.config.mona)
         before = world.time_ns
@@ -147,7 +149,7 @@ class Episode:
             t2 = clock()
             self.command = self.controllers.step(ground, ranges, is_robot, world.now)
             t3 = clock()
-        step = self._advance(self.command)
+        step = self.drive(self.command)
         t4 = clock()
         spent['ground sensors'] += t1 - t0
         spent['IR sensors'] += t2 - t1

@@ -1,0 +1,127 @@
+"""K episodes of the swarm as one Gymnasium ``VectorEnv``, stepped by the batched engine.
+
+Sub-environment k is one episode of N Monas (the same config, seed ``seed + k``); its
+observation is [N, obs] and its action [N, 3] (:mod:`swarm_supervisor.envs.spaces`), so a
+step takes actions [K, N, 3] and returns observations [K, N, obs], one shared reward per
+episode (the cue its swarm removed, as a share of its initial cue), ``terminations`` always
+False and ``truncations`` True when the episodes reach ``episode.duration`` (all K together:
+they have one length). A step is one control period, as in
+:class:`~swarm_supervisor.envs.parallel.MonaSwarmParallelEnv`.
+
+**Autoreset: next step** (Gymnasium's ``AutoresetMode.NEXT_STEP``): the ``step`` after the
+one that truncated ignores its actions and starts every episode again from the next seeds
+(``seed + K * r + k`` for the r-th round), returning their first observations with reward 0.
+:attr:`MonaSwarmVectorEnv.metrics` holds the current round's rows per episode; with
+BEECLUST's answers as actions they equal ``run_batch`` (and each lone ``run_episode``) bit
+for bit (tests/unit/test_envs.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium.spaces import Box
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from swarm_metrics.metrics import mean_cue
+from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.batch import Batch
+from swarm_supervisor.engine.episode import Episode
+from swarm_supervisor.envs.spaces import (ACTION_SIZE, EnvError, commands_from_actions,
+                                          observation_size, observations, reward)
+
+
+class MonaSwarmVectorEnv(VectorEnv):
+    """``num_envs`` episodes of one config, stepped together (see the module docstring)."""
+
+    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int, config: SwarmConfig | None = None) -> None:
+        """``config``: each episode (default: the shipped parameter file)."""
+        if num_envs < 1:
+            raise EnvError(f'num_envs must be at least 1, got {num_envs}')
+        self.config = config if config is not None else load_config()
+        self.population = self.config.episode.population
+        if self.population < 1:
+            raise EnvError('episode.population must be at least 1 for an environment')
+        self.num_envs = num_envs
+        size, top = observation_size(self.config.mona), self.config.mona.max_wheel_command
+        self.single_observation_space = Box(0.0, 1.0, shape=(self.population, size),
+                                            dtype=np.float64)
+        low = np.tile([-top, -top, 0.0], (self.population, 1))
+        high = np.tile([top, top, 1.0], (self.population, 1))
+        self.single_action_space = Box(low, high, dtype=np.float64)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.episodes = [Episode(self.config) for _ in range(num_envs)]
+        self.batch: Batch | None = None
+        #: Per episode, the metrics rows of the current round (as run_batch's).
+        self.metrics: list[list[dict[str, float]]] = [[] for _ in range(num_envs)]
+        self._seed = self.config.episode.seed
+        self._round = 0
+        self._needs_reset = False
+        self._initial = np.zeros(num_envs)
+        self._mean = np.zeros(num_envs)
+
+    def reset(self, *, seed: int | None = None,
+              options: dict | None = None) -> tuple[np.ndarray, dict]:
+        """Start every episode over: episode k from ``seed + k`` (default: the config's
+        seed), the round count from 0."""
+        if seed is not None:
+            self._seed = seed
+        self._round = 0
+        return self._start(), {}
+
+    def _start(self) -> np.ndarray:
+        first = self._seed + self.num_envs * self._round
+        for k, episode in enumerate(self.episodes):
+            episode.reset(first + k)
+            self.metrics[k] = [episode.metrics()]
+            self._initial[k] = self._mean[k] = mean_cue(episode.world.field.cue)
+        self.batch = Batch(self.episodes)
+        self._needs_reset = False
+        return self._observe()
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                 np.ndarray, dict]:
+        """Drive every robot of every episode with its action for one control period.
+
+        Raises:
+            EnvError: not reset yet, or the actions are not [K, N, 3].
+        """
+        zeros = np.zeros(self.num_envs)
+        falses = np.zeros(self.num_envs, dtype=bool)
+        if self.batch is None:
+            raise EnvError('call reset() first')
+        if self._needs_reset:
+            self._round += 1
+            return self._start(), zeros, falses, falses.copy(), {}
+        actions = np.asarray(actions, dtype=np.float64)
+        expected = (self.num_envs, self.population, ACTION_SIZE)
+        if actions.shape != expected:
+            raise EnvError(f'actions must have shape {expected}, got {actions.shape}')
+        command = commands_from_actions(actions.reshape(-1, ACTION_SIZE), self.config.mona)
+        for _ in range(self.config.world.control_steps):
+            for episode, step in self.batch.drive(command):
+                if step.sampled:
+                    self.metrics[self.episodes.index(episode)].append(episode.metrics())
+            if self.batch.done:
+                break
+        rewards = np.empty(self.num_envs)
+        for k, episode in enumerate(self.episodes):
+            now = mean_cue(episode.world.field.cue)
+            rewards[k] = reward(self._mean[k], now, self._initial[k])
+            self._mean[k] = now
+        over = self.batch.done
+        self._needs_reset = over
+        return self._observe(), rewards, falses, np.full(self.num_envs, over), {}
+
+    def _observe(self) -> np.ndarray:
+        mona = self.config.mona
+        if self.batch is not None and not self.batch.done:  # every episode runs: one pass
+            ground, ranges, is_robot = self.batch.sense()
+            return observations(ground, ranges, is_robot, mona).reshape(
+                self.num_envs, self.population, -1)
+        # The episodes' last readings (each equals its rows of a batch's sense()).
+        return np.stack([observations(r.ground, r.ranges, r.is_robot, mona)
+                         for r in (episode.world.sense() for episode in self.episodes)])
