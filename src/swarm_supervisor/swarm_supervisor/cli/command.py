@@ -15,6 +15,7 @@ import sys
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import __version__, exits
+from swarm_supervisor.outputs.guard import RecordExists
 from swarm_world.placement import PlacementError
 
 #: Modules that contribute subcommands, in the order ``--help`` lists them, with the
@@ -49,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or exits.OK)
-    except (ParameterError, PlacementError) as error:
+    except (ParameterError, PlacementError, RecordExists) as error:
         print(f'mona-swarm {args.command}: error: {error}', file=sys.stderr)
         return exits.USAGE
     except KeyboardInterrupt:

@@ -10,6 +10,7 @@ _WHERE = {
     **dict.fromkeys(('BagOptions', 'BagRecorder', 'EMBEDDED_MODE', 'ROBOT_STATES', 'RecordError',
                      'TOPICS', 'record_episode', 'status_json'), 'bag'),
     **dict.fromkeys(('draw_cue_map', 'save_cue_map'), 'pictures'),
+    **dict.fromkeys(('RECORD_FILES', 'RecordExists', 'claim_output', 'record_in'), 'guard'),
 }
 __all__ = sorted(_WHERE)
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE)
