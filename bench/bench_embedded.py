@@ -36,8 +36,8 @@ import argparse
 import math
 import time
 
-from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.engine.episode import PARTS, Episode
 from swarm_supervisor.engine.runner import run_batch, run_episode
 from swarm_supervisor.study import DEFAULT_BATCH_SIZE

@@ -26,8 +26,9 @@ from pathlib import Path
 
 from mona_controller.contract import POSES
 from swarm_supervisor.config import load_config
-from swarm_supervisor.media.live import LiveServer, LiveView
 from swarm_supervisor.engine.runner import run_episode
+from swarm_supervisor.media.live import LiveServer, LiveView
+
 
 class TimedView(LiveView):
     """The live view, timing the work it does when it sends (frames, metric samples) in the

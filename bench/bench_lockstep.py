@@ -27,9 +27,10 @@ from pathlib import Path
 
 import pingpong  # bench/, next to this file
 import rclpy
-from mona_controller import qos
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
+
+from mona_controller import qos
 from swarm_supervisor.system.processes import private_domain, ros_environment
 
 REPO = Path(__file__).resolve().parents[1]

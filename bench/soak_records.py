@@ -11,8 +11,8 @@ embedded runner's for the same seed, exactly. Not a test: it prints a table to q
 from __future__ import annotations
 
 import argparse
-import json
 import contextlib
+import json
 import subprocess
 import sys
 import tempfile
@@ -22,8 +22,8 @@ from pathlib import Path
 from swarm_metrics.bag_reader import BagError, read_episode_bag
 from swarm_metrics.completeness import check_bag
 from swarm_supervisor.config import load_config
-from swarm_supervisor.system.processes import busy_cores
 from swarm_supervisor.engine.runner import run_episode
+from swarm_supervisor.system.processes import busy_cores
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / 'ros_ws' / 'config' / 'mona_swarm.yaml'

@@ -20,8 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from harness import Processes, private_domain, ros_environment
 from swarm_supervisor.system.processes import busy_cores as busy_loops
+
+from harness import Processes, private_domain, ros_environment
 
 
 @pytest.fixture

@@ -9,10 +9,20 @@ import subprocess
 from pathlib import Path
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
-from swarm_supervisor.system.processes import (PROFILE, domain_shm_files, group_pids,  # noqa: F401
-                                        groups_shm, mapped_shm, private_domain,
-                                        remove_shm_leftovers, ros_environment, shm_files,
-                                        start_group, stop_group, stop_groups)
+from swarm_supervisor.system.processes import (  # noqa: F401
+    PROFILE,
+    domain_shm_files,
+    group_pids,
+    groups_shm,
+    mapped_shm,
+    private_domain,
+    remove_shm_leftovers,
+    ros_environment,
+    shm_files,
+    start_group,
+    stop_group,
+    stop_groups,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -12,8 +12,8 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from swarm_supervisor.media.video import Renderer, animate, frame_times, read_record
 from swarm_supervisor.config import load_config
+from swarm_supervisor.media.video import Renderer, animate, frame_times, read_record
 from swarm_supervisor.outputs.bag import record_episode
 
 CONFIG = load_config().replace(episode={'population': 20, 'duration': 160.0, 'seed': 4})

@@ -12,9 +12,19 @@ from std_msgs.msg import Float64, String
 from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.world_cdr import (STATE_COLOURS, clock_cdr, cue_grid_cdr, cue_image_cdr,
-                                     float64_cdr, markers_cdr, obstacles_cdr, pose_array_cdr,
-                                     states_cdr, states_from_cdr, string_cdr)
+from swarm_metrics.world_cdr import (
+    STATE_COLOURS,
+    clock_cdr,
+    cue_grid_cdr,
+    cue_image_cdr,
+    float64_cdr,
+    markers_cdr,
+    obstacles_cdr,
+    pose_array_cdr,
+    states_cdr,
+    states_from_cdr,
+    string_cdr,
+)
 from swarm_supervisor.outputs.bag import status_json
 from swarm_world.arena import Arena, Disc, Polygon, Rect
 from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, obstacle_markers

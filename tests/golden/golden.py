@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from swarm_supervisor.config import SwarmConfig, load_config
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.engine.runner import EpisodeResult, run_batch, run_episode
+from swarm_supervisor.outputs.episode_folder import write_episode
 
 DIGESTS = Path(__file__).with_name('digests.json')
 #: The libraries whose arithmetic the numbers depend on.

@@ -16,12 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from foxclient import Capture, connect_when_up
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.media.recorded import read_record
 from swarm_world.arena_markers import obstacles_from_markers
+
+from foxclient import Capture, connect_when_up
 
 POPULATION, DURATION, PACE = 6, 60.0, 12.0
 #: The watched episode runs among the obstacles of docs/extending.md's example layout.

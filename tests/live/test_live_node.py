@@ -13,8 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from foxclient import Capture, connect_when_up
 from swarm_supervisor.system.live_node import NODE_TOPICS
+
+from foxclient import Capture, connect_when_up
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import SwarmRun  # noqa: E402

@@ -9,15 +9,27 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mona_controller.messages import (fill_readings, ground_from_image, ground_image,
-                                      ns_to_stamp, proximity_from_scan, proximity_scan,
-                                      stamp_to_ns)
+from mona_controller.messages import (
+    fill_readings,
+    ground_from_image,
+    ground_image,
+    ns_to_stamp,
+    proximity_from_scan,
+    proximity_scan,
+    stamp_to_ns,
+)
 from mona_controller.mona import MonaParams
-from swarm_world.placement import place_robots, placement_rng
 from swarm_world.params import WorldParams
+from swarm_world.placement import place_robots, placement_rng
 from swarm_world.world import World
-from swarm_world.world_messages import (PoseArrayFiller, cue_from_image, cue_grid, cue_image,
-                                        poses_from_pose_array, robot_markers)
+from swarm_world.world_messages import (
+    PoseArrayFiller,
+    cue_from_image,
+    cue_grid,
+    cue_image,
+    poses_from_pose_array,
+    robot_markers,
+)
 
 
 @given(st.integers(0, 2**62))

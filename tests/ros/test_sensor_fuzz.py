@@ -14,8 +14,12 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import Image, LaserScan
 
 from mona_controller.controller import ControllerParams, SwarmController
-from mona_controller.messages import (ReadingError, fill_twist, ground_from_image,
-                                      proximity_from_scan)
+from mona_controller.messages import (
+    ReadingError,
+    fill_twist,
+    ground_from_image,
+    proximity_from_scan,
+)
 from mona_controller.mona import MonaParams, wheels_to_twist
 
 MONA = MonaParams()

@@ -4,8 +4,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from swarm_supervisor.analysis.anova import (TABLE_COLUMNS, VARIANTS, anova, anova_sample,
-                                    compare_variants, time_levels, write_anova)
+from swarm_supervisor.analysis.anova import (
+    TABLE_COLUMNS,
+    VARIANTS,
+    anova,
+    anova_sample,
+    compare_variants,
+    time_levels,
+    write_anova,
+)
 
 
 def synthetic_table(seed: int, *, population_effect: float, speed_effect: float,

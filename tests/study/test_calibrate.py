@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from swarm_supervisor.calibration import CalibrationError, PAPER_RATIO, load_design
+from swarm_supervisor.calibration import PAPER_RATIO, CalibrationError, load_design
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config
 

@@ -12,8 +12,8 @@ import yaml
 from swarm_supervisor.analysis import claims
 from swarm_supervisor.analysis.checks import CHECKS, evaluate, evaluate_levels
 from swarm_supervisor.analysis.claims import FAILS, HOLDS, NOT_APPLICABLE, ClaimError
-from swarm_supervisor.cli import main
 from swarm_supervisor.analysis.report import compared_section
+from swarm_supervisor.cli import main
 
 POPULATIONS = (10, 30, 50)
 SPEEDS = (0.04, 0.08)

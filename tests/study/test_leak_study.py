@@ -6,9 +6,8 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from swarm_supervisor.analysis import beyond_figures, figures
-
 from swarm_supervisor import study
+from swarm_supervisor.analysis import beyond_figures, figures
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
 

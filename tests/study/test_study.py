@@ -15,8 +15,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from swarm_supervisor.analysis.anova import anova
 from swarm_supervisor import outputs, study
+from swarm_supervisor.analysis.anova import anova
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
 

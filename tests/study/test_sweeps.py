@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor.analysis import figures
 from swarm_supervisor import study
+from swarm_supervisor.analysis import figures
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.engine.runner import run_episode

@@ -13,8 +13,15 @@ from pathlib import Path
 
 import pytest
 
-from harness import (REPO, domain_shm_files, groups_shm, mapped_shm, remove_shm_leftovers,
-                     shm_files, stop_group)
+from harness import (
+    REPO,
+    domain_shm_files,
+    groups_shm,
+    mapped_shm,
+    remove_shm_leftovers,
+    shm_files,
+    stop_group,
+)
 
 SWARM = REPO / 'scripts' / 'swarm.sh'
 CONFIG = REPO / 'ros_ws' / 'config' / 'mona_swarm.yaml'

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from swarm_metrics.bag_reader import TruncatedBagError, read_episode_bag
+
 from swarmrun import CONFIG, group_alive
 
 pytestmark = pytest.mark.ros

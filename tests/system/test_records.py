@@ -15,6 +15,7 @@ from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
+
 from swarmrun import CONFIG, SwarmRun
 
 pytestmark = pytest.mark.ros

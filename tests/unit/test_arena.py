@@ -11,8 +11,8 @@ import yaml
 
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
-from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.engine.episode import Episode
 from swarm_supervisor.engine.runner import run_batch, run_episode
 from swarm_world.arena import Arena, Disc, Polygon, Rect, pack

@@ -9,8 +9,14 @@ import pytest
 
 from swarm_world import arena_markers
 from swarm_world.arena import Arena, Disc, Polygon, Rect
-from swarm_world.arena_markers import (CUBE, CYLINDER, HEIGHT, TRIANGLE_LIST, obstacle_markers,
-                                       obstacles_from_markers)
+from swarm_world.arena_markers import (
+    CUBE,
+    CYLINDER,
+    HEIGHT,
+    TRIANGLE_LIST,
+    obstacle_markers,
+    obstacles_from_markers,
+)
 from swarm_world.params import WorldParams
 
 LAYOUT = {'pillar': [0.9, 2.0, 0.15], 'wall': [1.8, 0.5, 1.9, 1.3],

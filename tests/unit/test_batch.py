@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from mona_controller.controller import SwarmController
-from swarm_supervisor.engine.batch import Batch, BatchError
 from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.engine.batch import Batch, BatchError
 from swarm_supervisor.engine.episode import Episode
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.engine.runner import run_batch, run_episode
+from swarm_supervisor.outputs.episode_folder import write_episode
 
 SNAPSHOTS = (0.0, 7.0, 20.0)
 

@@ -6,8 +6,13 @@ from __future__ import annotations
 import pytest
 
 from mona_controller import contract
-from mona_controller.contract import (ContractError, RecorderBook, RecorderReport,
-                                      RecorderState, recorder_names)
+from mona_controller.contract import (
+    ContractError,
+    RecorderBook,
+    RecorderReport,
+    RecorderState,
+    recorder_names,
+)
 
 RECORDING, CLOSED = RecorderState.RECORDING, RecorderState.CLOSED
 

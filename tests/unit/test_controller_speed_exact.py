@@ -15,8 +15,16 @@ import math
 import numpy as np
 import pytest
 
-from mona_controller.controller import (AVOID, FOLLOW, TURN, WAIT, ControllerParams,
-                                        SwarmController, gradient_wheels, waiting_time)
+from mona_controller.controller import (
+    AVOID,
+    FOLLOW,
+    TURN,
+    WAIT,
+    ControllerParams,
+    SwarmController,
+    gradient_wheels,
+    waiting_time,
+)
 from mona_controller.mona import MonaParams
 from mona_controller.reference import check_controller
 

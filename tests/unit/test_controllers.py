@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from mona_controller.controller import ControllerParams, SwarmController
-from mona_controller.controllers import (CONTROLLERS, Controller, controller_class,
-                                         make_controller)
+from mona_controller.controllers import CONTROLLERS, Controller, controller_class, make_controller
 from mona_controller.mona import MonaParams
 from mona_controller.reference import random_readings
 from mona_controller.schema import ParameterError

@@ -10,8 +10,8 @@ from mona_controller.mona import wheels_to_twist
 from swarm_metrics.metrics import sample
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import PARTS, Episode, place_swarm
-from swarm_world.placement import place_robots, placement_rng
 from swarm_supervisor.engine.runner import run_episode
+from swarm_world.placement import place_robots, placement_rng
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
 

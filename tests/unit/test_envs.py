@@ -13,8 +13,13 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 from mona_controller.controllers import make_controller
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_batch, run_episode
-from swarm_supervisor.envs import (EnvError, MonaSwarmParallelEnv, MonaSwarmVectorEnv,
-                                   commands_from_actions, observations)
+from swarm_supervisor.envs import (
+    EnvError,
+    MonaSwarmParallelEnv,
+    MonaSwarmVectorEnv,
+    commands_from_actions,
+    observations,
+)
 
 SMALL = load_config().replace(episode={'population': 8, 'duration': 20.0, 'seed': 3})
 

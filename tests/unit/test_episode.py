@@ -9,8 +9,8 @@ import pytest
 from mona_controller.controller import WAIT
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.engine.runner import run_episode
+from swarm_supervisor.outputs.episode_folder import write_episode
 
 SIDE, RADIUS = 2.85, 0.04
 

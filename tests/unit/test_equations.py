@@ -8,7 +8,7 @@ import pytest
 from mona_controller.controller import ControllerParams, gradient_wheels, waiting_time
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.reference import Longhand
-from swarm_world.cue import cleaning_kernel, clean
+from swarm_world.cue import clean, cleaning_kernel
 
 
 def test_eq1_waiting_time_uses_s_squared():

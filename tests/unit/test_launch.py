@@ -15,9 +15,15 @@ from swarm_supervisor.cli import launch as launch_cli
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import DEFAULT_CONFIG
 from swarm_supervisor.system import launcher
-from swarm_supervisor.system.processes import (claim_domain, group_pids, lock_domain,
-                                               ros_environment, start_group, stop_group,
-                                               stop_groups)
+from swarm_supervisor.system.processes import (
+    claim_domain,
+    group_pids,
+    lock_domain,
+    ros_environment,
+    start_group,
+    stop_group,
+    stop_groups,
+)
 
 
 def options(*argv: str):

@@ -4,8 +4,7 @@ and bad input logged at most once per period for each kind."""
 
 from __future__ import annotations
 
-from mona_controller.pairing import (ANSWER_HISTORY, PENDING_LIMIT, RateLimitedLog,
-                                     ReadingPairs)
+from mona_controller.pairing import ANSWER_HISTORY, PENDING_LIMIT, RateLimitedLog, ReadingPairs
 
 START = 1_000
 

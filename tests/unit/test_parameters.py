@@ -4,8 +4,7 @@ import pytest
 
 from mona_controller.controller import ControllerParams
 from mona_controller.schema import ParameterError, flat_fields, from_mapping
-from swarm_supervisor.config import (DEFAULT_CONFIG, SwarmConfig, load_config,
-                                     write_ros_yaml)
+from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config, write_ros_yaml
 
 
 def test_shipped_yaml_equals_the_defaults():

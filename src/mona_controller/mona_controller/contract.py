@@ -15,11 +15,31 @@ import math
 from collections.abc import Iterable
 
 # The topic names and the table they belong to (re-exported: one import for the contract).
-from mona_controller.topics import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
-                                    CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX,
-                                    OBSTACLES, POSES, PROXIMITY, RECORDERS, ROBOT_STATES,
-                                    STATUS, TOPICS, QoS, Topic, metric_topic, robot_namespace,
-                                    robot_topic, topic_of)
+from mona_controller.topics import (  # noqa: F401
+    CLEANER,
+    CLEANING,
+    CLOCK,
+    CMD_VEL,
+    CUE_GRID,
+    CUE_MAP,
+    EPISODE,
+    GROUND,
+    MARKERS,
+    METRICS_PREFIX,
+    OBSTACLES,
+    POSES,
+    PROXIMITY,
+    RECORDERS,
+    ROBOT_STATES,
+    STATUS,
+    TOPICS,
+    QoS,
+    Topic,
+    metric_topic,
+    robot_namespace,
+    robot_topic,
+    topic_of,
+)
 
 #: The world frame (REP 103: origin at an arena corner, x and y along the walls).
 WORLD_FRAME = 'world'

@@ -31,8 +31,13 @@ from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.controller import ControllerParams
 from mona_controller.controllers import Controller, make_controller
-from mona_controller.messages import (ReadingError, fill_twist, ground_from_image,
-                                      proximity_from_scan, stamp_to_ns)
+from mona_controller.messages import (
+    ReadingError,
+    fill_twist,
+    ground_from_image,
+    proximity_from_scan,
+    stamp_to_ns,
+)
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.pairing import RateLimitedLog, ReadingPairs
 from mona_controller.ros_params import declare_section
@@ -166,6 +171,7 @@ class ControllerNode(Node):
                     + '; '.join(differ) + ': start every node with the same --params-file')
 
     def on_ground(self, msg: Image) -> None:
+        """A ground-sensor image: the two readings, or a one-line warning if it is malformed."""
         try:
             ground = ground_from_image(msg).reshape(1, 2)
         except ReadingError as error:
@@ -174,6 +180,7 @@ class ControllerNode(Node):
         self._publish(self.pairs.add_ground(stamp_to_ns(msg.header.stamp), ground))
 
     def on_proximity(self, msg: LaserScan) -> None:
+        """An IR scan: the ranges and robot flags, or a one-line warning if it is malformed."""
         try:
             ranges, is_robot, note = proximity_from_scan(msg, self.mona.ir_count)
             if note:

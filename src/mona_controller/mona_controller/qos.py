@@ -15,11 +15,32 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 # The names are the contract's; re-exported so a node needs one import for name and QoS.
-from mona_controller.contract import (CLEANER, CLEANING, CLOCK, CMD_VEL, CUE_GRID,  # noqa: F401
-                                      CUE_MAP, EPISODE, GROUND, MARKERS, METRICS_PREFIX,
-                                      OBSTACLES, POSES, PROXIMITY, RECORDERS, ROBOT_STATES,
-                                      STATUS, TOPICS, WORLD_FRAME, QoS, base_frame,
-                                      metric_topic, robot_namespace, robot_topic, topic_of)
+from mona_controller.contract import (  # noqa: F401
+    CLEANER,
+    CLEANING,
+    CLOCK,
+    CMD_VEL,
+    CUE_GRID,
+    CUE_MAP,
+    EPISODE,
+    GROUND,
+    MARKERS,
+    METRICS_PREFIX,
+    OBSTACLES,
+    POSES,
+    PROXIMITY,
+    RECORDERS,
+    ROBOT_STATES,
+    STATUS,
+    TOPICS,
+    WORLD_FRAME,
+    QoS,
+    base_frame,
+    metric_topic,
+    robot_namespace,
+    robot_topic,
+    topic_of,
+)
 
 
 def profile(qos: QoS) -> QoSProfile:

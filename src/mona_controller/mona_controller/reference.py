@@ -18,8 +18,14 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from mona_controller.controller import (AVOID, CONTROLLER_STREAM, FOLLOW, TURN, WAIT,
-                                        ControllerParams)
+from mona_controller.controller import (
+    AVOID,
+    CONTROLLER_STREAM,
+    FOLLOW,
+    TURN,
+    WAIT,
+    ControllerParams,
+)
 from mona_controller.controllers import Command, Controller
 from mona_controller.mona import MonaParams
 

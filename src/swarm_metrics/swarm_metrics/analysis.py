@@ -22,9 +22,9 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
 from swarm_metrics.metrics import MetricsParams, metric_names, sample_field
+from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.timing import crossed, steps_for
-from swarm_world.field import CueField
 
 #: Later than any sim time.
 NEVER = 2**63 - 1

@@ -23,9 +23,8 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
-from pathlib import Path
-
 from collections.abc import Callable
+from pathlib import Path
 
 import rclpy
 from rclpy.clock import Clock, ClockType

@@ -18,9 +18,21 @@ import struct
 from pathlib import Path
 from typing import NamedTuple
 
-from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, EPISODE, OBSTACLES, POSES,
-                                      STATUS, TOPICS, ContractError, WorldState, WorldStatus,
-                                      metric_topic, topic_of)
+from mona_controller.contract import (
+    CLEANING,
+    CLOCK,
+    CUE_MAP,
+    EPISODE,
+    OBSTACLES,
+    POSES,
+    STATUS,
+    TOPICS,
+    ContractError,
+    WorldState,
+    WorldStatus,
+    metric_topic,
+    topic_of,
+)
 from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
 from swarm_metrics.bag_writer import EpisodeBagWriter, offered

@@ -27,8 +27,15 @@ from typing import TypeVar
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
 
-from swarm_metrics.bag_reader import (EPISODE, BagError, McapScan, TruncatedBagError,
-                                      decode_json, find_mcap, read_custom_data)
+from swarm_metrics.bag_reader import (
+    EPISODE,
+    BagError,
+    McapScan,
+    TruncatedBagError,
+    decode_json,
+    find_mcap,
+    read_custom_data,
+)
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE, EpisodeBagWriter
 
 T = TypeVar('T')

@@ -14,7 +14,6 @@ import numba
 import numpy as np
 
 
-
 def cleaning_kernel(radius: int, peak: float) -> np.ndarray:
     """Eq. 3's patch: the cell at offset (p, q) loses peak - sqrt(p^2 + q^2), never < 0."""
     offsets = np.arange(-radius, radius + 1)

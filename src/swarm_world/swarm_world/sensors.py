@@ -22,9 +22,8 @@ import numba
 import numpy as np
 
 from mona_controller.mona import MonaParams
-from swarm_world.transfer import transfer_table
-
 from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
+from swarm_world.transfer import transfer_table
 
 #: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
 NO_NOISE = np.zeros((0, 2))

@@ -33,10 +33,22 @@ from std_msgs.msg import Bool, String
 from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
-from mona_controller.contract import (Announcement, ContractError, RecorderBook, RecorderReport,
-                                      WorldState, WorldStatus, recorder_names)
-from mona_controller.messages import (fill_readings, ground_image, proximity_scan, set_stamp,
-                                      stamp_to_ns)
+from mona_controller.contract import (
+    Announcement,
+    ContractError,
+    RecorderBook,
+    RecorderReport,
+    WorldState,
+    WorldStatus,
+    recorder_names,
+)
+from mona_controller.messages import (
+    fill_readings,
+    ground_image,
+    proximity_scan,
+    set_stamp,
+    stamp_to_ns,
+)
 from mona_controller.mona import MonaParams
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, differences, to_mapping
@@ -45,8 +57,13 @@ from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.timing import crossed, steps_for
 from swarm_world.world import World
-from swarm_world.world_messages import (PoseArrayFiller, cue_grid, cue_image, obstacle_markers,
-                                        robot_markers)
+from swarm_world.world_messages import (
+    PoseArrayFiller,
+    cue_grid,
+    cue_image,
+    obstacle_markers,
+    robot_markers,
+)
 
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.
@@ -84,6 +101,7 @@ class RobotLink:
 
     def publish(self, ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray,
                 stamp_ns: int) -> None:
+        """Publish one robot's readings for the step stamped ``stamp_ns``."""
         fill_readings(self.ground_msg, self.scan_msg, ground, ranges, is_robot, stamp_ns)
         self.resend()
 
@@ -312,9 +330,11 @@ class WorldNode(Node):
     # --- commands -----------------------------------------------------------------------
 
     def on_cleaner(self, robot_id: int, msg: Bool) -> None:
+        """A controller says whether its robot is cleaning."""
         self.lockstep.set_cleaner(robot_id, msg.data)
 
     def on_cmd(self, robot_id: int, msg: TwistStamped) -> None:
+        """A wheel command: handed to the lockstep round of its stamp."""
         if self.state is not WorldState.RUNNING:
             return
         stamp = stamp_to_ns(msg.header.stamp)
@@ -485,10 +505,12 @@ class WorldNode(Node):
     # --- world topics -------------------------------------------------------------------
 
     def publish_clock(self) -> None:
+        """Publish /clock at the world's sim time."""
         set_stamp(self.clock_msg.clock, self.time_ns)
         self.clock_pub.publish(self.clock_msg)
 
     def publish_map(self) -> None:
+        """Publish the cue map, its occupancy grid and the robot markers."""
         self.map_pub.publish(cue_image(self.world.cue, self.time_ns))
         self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
         self.markers_pub.publish(robot_markers(self.world.poses, self.world.cleaning,
@@ -497,6 +519,7 @@ class WorldNode(Node):
             self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
 
     def publish_status(self) -> None:
+        """Publish /world/status with the lockstep counters."""
         counters = self.lockstep.counters()
         status = WorldStatus(
             self.episode, self.state, step=self.world.steps, steps=self.total_steps,

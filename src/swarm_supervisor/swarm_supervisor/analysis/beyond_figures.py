@@ -11,8 +11,17 @@ from pathlib import Path
 import pandas as pd
 
 from swarm_metrics.metrics import METRICS, PAPER_METRICS, SOURCE_COLUMNS, source_names
-from swarm_supervisor.analysis.figures import (FigureSkipped, colours, finish, from_zero, grid,
-                                               over_seeds, seeds_label, speed_label, variants)
+from swarm_supervisor.analysis.figures import (
+    FigureSkipped,
+    colours,
+    finish,
+    from_zero,
+    grid,
+    over_seeds,
+    seeds_label,
+    speed_label,
+    variants,
+)
 
 #: Drawn when the episodes have several sources (docs/model.md "Leaks beyond the paper").
 FIG_SOURCES = 'fig_sources.png'

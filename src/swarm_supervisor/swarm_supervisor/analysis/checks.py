@@ -18,8 +18,14 @@ import pandas as pd
 
 from swarm_supervisor import study
 from swarm_supervisor.analysis import anova as anova_tables
-from swarm_supervisor.analysis.claims import (FAILS, HOLDS, NOT_APPLICABLE, SPEED_TOLERANCE,
-                                              Claim, ClaimResult)
+from swarm_supervisor.analysis.claims import (
+    FAILS,
+    HOLDS,
+    NOT_APPLICABLE,
+    SPEED_TOLERANCE,
+    Claim,
+    ClaimResult,
+)
 
 
 class NotApplicable(Exception):

@@ -107,6 +107,7 @@ def _substitution(populations: Sequence[int], speed: float) -> str:
 
 
 def finish(fig, path: str | Path) -> None:
+    """Save ``fig`` to ``path`` at the figures' resolution and free it."""
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
 

@@ -22,18 +22,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from swarm_supervisor.analysis import anova as anova_tables
-from swarm_supervisor.analysis import beyond_figures
-from swarm_supervisor.analysis import checks
-from swarm_supervisor.analysis import claims as claim_checks
-from swarm_supervisor.analysis import figures
-from swarm_supervisor.analysis import profile
 from swarm_metrics.completeness import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
-from swarm_supervisor.analysis import sensitivity
-from swarm_supervisor.analysis.reading import (ANOVA_FILES, cleaning_summary, reading,
-                                               variant_cells, variant_table)
+from swarm_supervisor.analysis import anova as anova_tables
+from swarm_supervisor.analysis import beyond_figures, checks, figures, profile, sensitivity
+from swarm_supervisor.analysis import claims as claim_checks
+from swarm_supervisor.analysis.reading import (
+    ANOVA_FILES,
+    cleaning_summary,
+    reading,
+    variant_cells,
+    variant_table,
+)
 
 REPORT_FILE = 'report.md'
 DEPENDENCIES = ('numpy', 'pymunk', 'pandas', 'statsmodels', 'matplotlib')

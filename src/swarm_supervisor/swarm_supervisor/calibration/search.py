@@ -44,11 +44,13 @@ class TrialResult:
     score: Score
 
     def to_json(self) -> str:
+        """The trial as the JSON its folder keeps."""
         return json.dumps({'number': self.number, 'values': self.values,
                            'score': dataclasses.asdict(self.score)}, indent=2) + '\n'
 
     @classmethod
     def from_json(cls, text: str) -> TrialResult:
+        """A trial read back from :meth:`to_json`'s text."""
         document = json.loads(text)
         stored = document['score']
         return cls(document['number'], document['values'],
@@ -98,6 +100,7 @@ def open_search(design: CalibrationDesign, out: Path):
 
 
 def trial_dir(out: Path, number: int) -> Path:
+    """The folder of trial ``number`` under the calibration folder ``out``."""
     return out / TRIALS_DIR / f'{number:04d}'
 
 

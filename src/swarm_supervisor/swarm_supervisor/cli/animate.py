@@ -10,8 +10,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from swarm_metrics.bag_reader import BagError
-from swarm_supervisor.media.video import AnimateError, animate
 from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.media.video import AnimateError, animate
 
 
 def register(subparsers) -> None:

@@ -24,8 +24,8 @@ from swarm_metrics.completeness import Finding
 from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.engine.runner import EpisodeResult
+from swarm_supervisor.outputs.episode_folder import write_episode
 
 BAG_NAMES = ('bag', 'bag' + SUFFIX)  # the metrics node's bag folder (and its recovered copy)
 INCOMPLETE, BAD_BAG = 1, 2  # exit statuses

@@ -42,8 +42,14 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Search, confirm, report."""
     from swarm_supervisor.analysis.claims import paper_claims
-    from swarm_supervisor.calibration import (candidates, confirm, load_design, load_results,
-                                              run_search, write_report)
+    from swarm_supervisor.calibration import (
+        candidates,
+        confirm,
+        load_design,
+        load_results,
+        run_search,
+        write_report,
+    )
 
     started = time.perf_counter()
     design = load_design(args.design)

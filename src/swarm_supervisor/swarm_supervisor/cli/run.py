@@ -15,11 +15,16 @@ from tqdm import tqdm
 
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.runner import (
+    EpisodeObserver,
+    EpisodeResult,
+    Pacer,
+    run_batch,
+    run_episode,
+)
 from swarm_supervisor.media.live import DEFAULT_PORT, LiveServer, LiveView, announce
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.outputs.bag import BagRecorder, RecordError
-from swarm_supervisor.engine.runner import (EpisodeObserver, EpisodeResult, Pacer, run_batch,
-                                     run_episode)
+from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 
 

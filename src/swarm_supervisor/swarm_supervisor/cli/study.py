@@ -12,10 +12,10 @@ import pandas as pd
 
 from swarm_metrics.completeness import describe
 from swarm_supervisor import study
-from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.analysis.claims import all_claims
-from swarm_supervisor.config import load_config
 from swarm_supervisor.analysis.report import analyse
+from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.config import load_config
 
 
 def register(subparsers) -> None:

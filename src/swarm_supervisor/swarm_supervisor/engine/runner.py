@@ -38,14 +38,17 @@ class Pacer:
         self.started = time.perf_counter()
 
     def start(self, episode: Episode) -> None:
+        """Note the wall clock at sim time 0."""
         self.started = time.perf_counter()
 
     def step(self, episode: Episode, step: Step) -> None:
+        """Sleep until the wall clock catches up with ``pace`` times the sim clock."""
         ahead = step.time_ns / 1e9 / self.pace - (time.perf_counter() - self.started)
         if ahead > 0.002:  # sleep in slices the OS honours
             time.sleep(ahead)
 
     def finish(self, episode: Episode) -> None:
+        """Nothing to close."""
         pass
 
 

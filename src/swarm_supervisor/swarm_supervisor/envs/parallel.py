@@ -24,8 +24,14 @@ from pettingzoo import ParallelEnv
 from swarm_metrics.metrics import mean_cue
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.episode import Episode
-from swarm_supervisor.envs.spaces import (ACTION_SIZE, EnvError, commands_from_actions,
-                                          observation_size, observations, reward)
+from swarm_supervisor.envs.spaces import (
+    ACTION_SIZE,
+    EnvError,
+    commands_from_actions,
+    observation_size,
+    observations,
+    reward,
+)
 from swarm_world.world import Readings
 
 

@@ -27,8 +27,14 @@ from swarm_metrics.metrics import mean_cue
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.engine.episode import Episode
-from swarm_supervisor.envs.spaces import (ACTION_SIZE, EnvError, commands_from_actions,
-                                          observation_size, observations, reward)
+from swarm_supervisor.envs.spaces import (
+    ACTION_SIZE,
+    EnvError,
+    commands_from_actions,
+    observation_size,
+    observations,
+    reward,
+)
 
 
 class MonaSwarmVectorEnv(VectorEnv):

@@ -28,17 +28,37 @@ from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
 from mona_controller import topics
-from mona_controller.contract import (CLOCK, CUE_GRID, CUE_MAP, EPISODE, MARKERS, OBSTACLES,
-                                      POSES, ROBOT_STATES, STATUS, Announcement, WorldState,
-                                      WorldStatus, metric_topic)
+from mona_controller.contract import (
+    CLOCK,
+    CUE_GRID,
+    CUE_MAP,
+    EPISODE,
+    MARKERS,
+    OBSTACLES,
+    POSES,
+    ROBOT_STATES,
+    STATUS,
+    Announcement,
+    WorldState,
+    WorldStatus,
+    metric_topic,
+)
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics import metric_names
-from swarm_metrics.world_cdr import (clock_cdr, cue_grid_cdr, cue_image_cdr, float64_cdr,
-                                     markers_cdr, obstacles_cdr, pose_array_cdr, states_cdr,
-                                     string_cdr)
+from swarm_metrics.world_cdr import (
+    clock_cdr,
+    cue_grid_cdr,
+    cue_image_cdr,
+    float64_cdr,
+    markers_cdr,
+    obstacles_cdr,
+    pose_array_cdr,
+    states_cdr,
+    string_cdr,
+)
 from swarm_supervisor.engine.episode import Episode, Step
-from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
+from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 
@@ -111,6 +131,7 @@ class LiveServer:
 
     @property
     def port(self) -> int:
+        """The TCP port the server listens on (useful when 0 was asked for)."""
         return self.server.port
 
     @property
@@ -176,6 +197,7 @@ class LiveView(EpisodeObserver):
     # --- the observer ---------------------------------------------------------------------
 
     def start(self, episode: Episode) -> None:
+        """Announce the episode to every client."""
         config = episode.config
         self.announcement = string_cdr(Announcement(
             0, seed=episode.seed, population=config.episode.population,
@@ -190,6 +212,7 @@ class LiveView(EpisodeObserver):
         self._frame(episode, time.perf_counter(), force=True)
 
     def step(self, episode: Episode, step: Step) -> None:
+        """Send what changed, throttled to the wall clock."""
         # Called 10,000 times a wall second: the clock is read every few steps only, and
         # everything sent is throttled to the wall clock (bench/bench_live.py).
         if len(step.cleaned):
@@ -208,6 +231,7 @@ class LiveView(EpisodeObserver):
                 self._frame(episode, wall)
 
     def finish(self, episode: Episode) -> None:
+        """Send the last metrics, the finished status and a final frame."""
         self._metrics(episode)  # the last sample, whatever the throttle
         self._status(episode, WorldState.FINISHED)
         self._frame(episode, time.perf_counter(), force=True)

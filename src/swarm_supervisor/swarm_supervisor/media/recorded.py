@@ -8,8 +8,16 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.contract import (CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, OBSTACLES,
-                                      POSES, ROBOT_STATES, STATUS)
+from mona_controller.contract import (
+    CLEANING,
+    CUE_MAP,
+    EPISODE,
+    METRICS_PREFIX,
+    OBSTACLES,
+    POSES,
+    ROBOT_STATES,
+    STATUS,
+)
 from swarm_metrics.analysis import AnnouncementError, EpisodeSetup
 from swarm_metrics.bag_reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
 from swarm_metrics.world_cdr import states_from_cdr
@@ -38,6 +46,7 @@ class Record:
 
     @property
     def duration_ns(self) -> int:
+        """The episode's recorded sim-time span."""
         return self.setup.end_ns - self.setup.start_ns
 
 

@@ -24,13 +24,27 @@ import numpy as np
 from rosbags.interfaces import Qos
 
 from mona_controller import topics
-from mona_controller.contract import (CLEANING, CLOCK, CUE_MAP, POSES, ROBOT_STATES,
-                                      Announcement, WorldState, WorldStatus)
+from mona_controller.contract import (
+    CLEANING,
+    CLOCK,
+    CUE_MAP,
+    POSES,
+    ROBOT_STATES,
+    Announcement,
+    WorldState,
+    WorldStatus,
+)
 from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder
-from swarm_metrics.world_cdr import (clock_cdr, cue_image_cdr, obstacles_cdr, pose_array_cdr,
-                                     states_cdr, string_cdr)
+from swarm_metrics.world_cdr import (
+    clock_cdr,
+    cue_image_cdr,
+    obstacles_cdr,
+    pose_array_cdr,
+    states_cdr,
+    string_cdr,
+)
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult, run_episode
@@ -131,6 +145,7 @@ class BagRecorder(EpisodeObserver):
     # --- what the world and the supervisor would publish ---------------------------------
 
     def start(self, episode: Episode) -> None:
+        """Write the announcement, the static topics and the first state."""
         config, world = episode.config, episode.world
         announcement = Announcement(
             self.episode_number, seed=episode.seed, population=config.episode.population,
@@ -151,6 +166,7 @@ class BagRecorder(EpisodeObserver):
             raise
 
     def step(self, episode: Episode, step: Step) -> None:
+        """Record the step's messages (the bag is closed on any error, so it stays readable)."""
         try:
             self._step(episode, step)
         except BaseException:
@@ -182,6 +198,7 @@ class BagRecorder(EpisodeObserver):
             self._poses(episode, now)
 
     def finish(self, episode: Episode) -> None:
+        """Write the last cue map, metrics and status, then close the bag."""
         try:
             now = self.start_ns + episode.time_ns
             self._route(CUE_MAP, cue_image_cdr(episode.world.cue, now))

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from swarm_metrics.metrics import COLUMNS
-from swarm_supervisor.outputs.pictures import save_cue_map
 from swarm_supervisor import __version__
 from swarm_supervisor.engine.runner import EpisodeResult
+from swarm_supervisor.outputs.pictures import save_cue_map
 
 METRICS_FILE = 'metrics.csv'
 EPISODE_FILE = 'episode.json'

@@ -12,11 +12,11 @@ again on another worker (Dask gives up on a task only after it has killed
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 import sys
 import tempfile
-import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 

@@ -22,9 +22,9 @@ from tqdm import tqdm
 
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, write_ros_yaml
-from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.local import available_cpus, run_local
+from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
 from swarm_supervisor.study.tasks import BAG_DIR, DEFAULT_BATCH_SIZE, EpisodeTask, make_batches
 

@@ -33,8 +33,15 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from mona_controller import qos
-from mona_controller.contract import (Announcement, ContractError, RecorderBook,
-                                      RecorderReport, WorldState, WorldStatus, recorder_names)
+from mona_controller.contract import (
+    Announcement,
+    ContractError,
+    RecorderBook,
+    RecorderReport,
+    WorldState,
+    WorldStatus,
+    recorder_names,
+)
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
