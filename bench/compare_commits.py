@@ -19,6 +19,7 @@ import argparse
 import hashlib
 import json
 import os
+import site
 import subprocess
 import sys
 import tempfile
@@ -54,8 +55,10 @@ print(json.dumps({'lone': lone_wall, 'batch': batch_wall,
 
 
 def side_env(tree: Path) -> dict[str, str]:
-    """The environment that makes ``tree``'s packages the ones imported."""
-    paths = [str(tree / 'src' / name) for name in PACKAGES]
+    """The environment that makes ``tree``'s packages the ones imported: its sources, then this
+    venv's libraries. The probe runs with ``python -S``: the venv's editable installs are
+    import hooks in .pth files that would otherwise win over PYTHONPATH."""
+    paths = [str(tree / 'src' / name) for name in PACKAGES] + site.getsitepackages()
     tag = hashlib.sha256(str(tree).encode()).hexdigest()[:12]  # one numba cache per tree
     return dict(os.environ, PYTHONPATH=os.pathsep.join(paths),
                 NUMBA_CACHE_DIR=str(Path(tempfile.gettempdir()) / f'numba-{tag}'))
@@ -63,7 +66,7 @@ def side_env(tree: Path) -> dict[str, str]:
 
 def measure(tree: Path, duration: float) -> dict[str, float]:
     """One round of the probe in ``tree`` (a fresh process)."""
-    done = subprocess.run([sys.executable, '-c', PROBE, str(duration)], cwd=tree,
+    done = subprocess.run([sys.executable, '-S', '-c', PROBE, str(duration)], cwd=tree,
                           env=side_env(tree), capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 
