@@ -28,7 +28,9 @@ from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
 from swarm_supervisor.system.preflight import (
     UsageError,
+    check_fit,
     check_parameters,
+    check_participants,
     check_roles,
     forced_domain,
     run_overrides,
@@ -282,6 +284,11 @@ def launch(options: argparse.Namespace) -> int:
         if options.role != 'all' and domain is None:
             raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
                              'host), so that the hosts of the run find each other')
+        if 'supervisor' in ROLES[options.role]:  # the supervisor places the robots
+            check_fit(config, options.episodes,
+                      '--population' if options.population is not None else
+                      'episode.population')
+        check_participants(options, config.episode.population, domain)
         address = local_address(options.peers) if options.peers else None
         if options.peers and address is None:
             raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
