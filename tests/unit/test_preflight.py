@@ -98,3 +98,46 @@ def test_the_launcher_refuses_before_it_writes(argv, pattern, tmp_path: Path, ca
     error = capsys.readouterr().err
     assert pattern in error and error.count('\n') == 1, error
     assert not out.exists()
+
+
+def earlier_node_run(folder: Path, *, run_json: bool = True) -> None:
+    """What a stopped node-system run leaves: its bag, perhaps no run.json yet."""
+    (folder / 'episode_0' / 'bag').mkdir(parents=True)
+    (folder / 'episode_0' / 'bag' / 'metadata.yaml').write_text('rosbag2_bagfile_information:\n')
+    if run_json:
+        (folder / 'run.json').write_text('{}')
+
+
+@pytest.mark.parametrize('run_json', [True, False])
+def test_an_earlier_run_is_refused_naming_overwrite(run_json, tmp_path: Path, capsys):
+    out = tmp_path / 'earlier'
+    earlier_node_run(out, run_json=run_json)
+    before = sorted(p.relative_to(out) for p in out.rglob('*'))
+    assert main(['launch', '--population', '3', '--out', str(out)]) == 2
+    error = capsys.readouterr().err
+    assert 'already holds' in error and '--overwrite' in error and error.count('\n') == 1
+    assert sorted(p.relative_to(out) for p in out.rglob('*')) == before
+
+
+def test_overwrite_replaces_the_folder_whole(tmp_path: Path):
+    from swarm_supervisor.system.launcher import claim_out
+    out = tmp_path / 'earlier'
+    earlier_node_run(out, run_json=False)
+    (out / 'logs').mkdir()
+    (out / 'processes.tsv').write_text('world\t1\tworld_node\n')
+    claim_out(out, overwrite=True)
+    assert not out.exists()
+    # A folder without a record is used as it is.
+    (tmp_path / 'plots').mkdir()
+    (tmp_path / 'plots' / 'figure.png').write_bytes(b'png')
+    claim_out(tmp_path / 'plots', overwrite=False)
+    assert (tmp_path / 'plots' / 'figure.png').exists()
+
+
+def test_the_default_output_folder_is_always_new(tmp_path: Path, monkeypatch):
+    from swarm_supervisor.system import launcher
+    monkeypatch.setattr(launcher, 'REPO', tmp_path)
+    first = launcher.default_out()
+    first.mkdir(parents=True)
+    second = launcher.default_out()
+    assert second != first and not second.exists()

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
+from swarm_supervisor.outputs.guard import RecordExists, claim_output
 from swarm_supervisor.system.preflight import (
     UsageError,
     check_fit,
@@ -33,6 +34,7 @@ from swarm_supervisor.system.preflight import (
     check_participants,
     check_roles,
     forced_domain,
+    node_run_in,
     run_overrides,
 )
 from swarm_supervisor.system.processes import (
@@ -273,6 +275,34 @@ class Run:
         return failures
 
 
+def claim_out(out: Path, overwrite: bool) -> None:
+    """Make ``out`` ready for the run (:func:`~swarm_supervisor.outputs.guard.claim_output`):
+    a folder holding an earlier record, also a node-system run that the guard's markers miss
+    (:func:`~swarm_supervisor.system.preflight.node_run_in`), is refused unless
+    ``overwrite``, which deletes it whole: a run never writes beside an old bag.
+
+    Raises:
+        RecordExists: naming the folder, what it holds and ``--overwrite``.
+    """
+    claim_output(out, overwrite=overwrite)
+    marker = node_run_in(out)
+    if marker is None:
+        return
+    if not overwrite:
+        raise RecordExists(f'--out {out} already holds a node-system run ({marker}): choose '
+                           'another --out, or pass --overwrite to replace it whole')
+    shutil.rmtree(out)
+
+
+def default_out() -> Path:
+    """results/swarm-<date>-<time>, with -2, -3, ... if a run of the same second has it."""
+    base = REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    out, n = base, 2
+    while out.exists():
+        out, n = base.with_name(f'{base.name}-{n}'), n + 1
+    return out
+
+
 def launch(options: argparse.Namespace) -> int:
     """Run the node system of ``options`` (``mona-swarm launch``); returns the exit status
     (:mod:`swarm_supervisor.exits`)."""
@@ -299,11 +329,15 @@ def launch(options: argparse.Namespace) -> int:
     except ParameterError as error:
         say(f'bad parameter: {error}')
         return exits.USAGE
-    out = options.out or REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    out = options.out or default_out()
     try:
+        claim_out(out, getattr(options, 'overwrite', False))
         (out / 'logs').mkdir(parents=True, exist_ok=True)
-    except OSError:
-        say(f"cannot create '{out / 'logs'}'")
+    except RecordExists as error:
+        say(str(error))
+        return exits.USAGE
+    except OSError as error:
+        say(f"cannot create '{out / 'logs'}': {error.strerror or error}")
         return exits.USAGE
     out = out.resolve()
     lock = None

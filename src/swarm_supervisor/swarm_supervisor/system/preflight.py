@@ -162,3 +162,20 @@ def check_participants(options: argparse.Namespace, population: int,
     raise UsageError(
         f'{robots} robots at {options.per_process} per process are {count} DDS participants on '
         f'this host (about {limit} fit {where}): {hint}')
+
+
+def node_run_in(folder: Path) -> Path | None:
+    """A file that shows ``folder`` holds (part of) an earlier node-system run, or None: its
+    ``run.json`` or ``processes.tsv``, or a bag's ``metadata.yaml`` or ``.mcap`` under
+    ``episode_<k>/bag*`` (also of a run stopped before the supervisor wrote run.json)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return None
+    for name in ('run.json', 'processes.tsv'):
+        if (folder / name).is_file():
+            return folder / name
+    for bag in sorted(folder.glob('episode_*/bag*')):
+        found = sorted(bag.glob('metadata.yaml')) + sorted(bag.glob('*.mcap'))
+        if found:
+            return found[0]
+    return None
