@@ -365,6 +365,8 @@ def launch(options: argparse.Namespace) -> int:
     outcome = ''
     try:
         for name, command in node_commands(options, population, out, executables).items():
+            if run.stopping:  # a signal while spawning: start no more, stop what started
+                break
             run.start(name, command)
         outcome = run.wait()
         if run.stopping:
