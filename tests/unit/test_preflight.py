@@ -120,7 +120,7 @@ def test_an_earlier_run_is_refused_naming_overwrite(run_json, tmp_path: Path, ca
 
 
 def test_overwrite_replaces_the_folder_whole(tmp_path: Path):
-    from swarm_supervisor.system.launcher import claim_out
+    from swarm_supervisor.system.out_folder import claim_out
     out = tmp_path / 'earlier'
     earlier_node_run(out, run_json=False)
     (out / 'logs').mkdir()
@@ -135,9 +135,9 @@ def test_overwrite_replaces_the_folder_whole(tmp_path: Path):
 
 
 def test_the_default_output_folder_is_always_new(tmp_path: Path, monkeypatch):
-    from swarm_supervisor.system import launcher
-    monkeypatch.setattr(launcher, 'REPO', tmp_path)
-    first = launcher.default_out()
+    from swarm_supervisor.system import out_folder
+    monkeypatch.setattr(out_folder, 'REPO', tmp_path)
+    first = out_folder.default_out()
     first.mkdir(parents=True)
-    second = launcher.default_out()
+    second = out_folder.default_out()
     assert second != first and not second.exists()

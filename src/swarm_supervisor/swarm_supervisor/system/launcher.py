@@ -26,7 +26,8 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
-from swarm_supervisor.outputs.guard import RecordExists, claim_output
+from swarm_supervisor.outputs.guard import RecordExists
+from swarm_supervisor.system.out_folder import claim_out, default_out
 from swarm_supervisor.system.preflight import (
     UsageError,
     check_fit,
@@ -34,12 +35,10 @@ from swarm_supervisor.system.preflight import (
     check_participants,
     check_roles,
     forced_domain,
-    node_run_in,
     run_overrides,
 )
 from swarm_supervisor.system.processes import (
     PROFILE,
-    REPO,
     claim_domain,
     describe,
     groups_shm,
@@ -53,6 +52,7 @@ from swarm_supervisor.system.processes import (
     wait_gone,
     write_ros_env,
 )
+from swarm_supervisor.system.progress import ProgressLine, read_progress
 
 PROG = 'mona-swarm launch'
 #: Node kind -> (package, executable).
@@ -68,6 +68,8 @@ BAG_GRACE = 30.0
 QUIET_END = 10.0
 #: Seconds between two looks at the /dev/shm files the nodes map.
 NOTE_SHM_EVERY = 10.0
+#: Wall seconds between two progress lines on stderr.
+PROGRESS_EVERY = 10.0
 #: What each ``--role`` starts: the whole system on one host, or the part for one host
 #: ('supervision': the core without the world, for a driver of real Monas that replaces it).
 ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
@@ -201,7 +203,8 @@ class Run:
         has ended ('finished'): controllers end on the supervisor's shutdown announcement,
         wherever the supervisor runs.
         """
-        started = noted = time.monotonic()
+        started = noted = shown = time.monotonic()
+        progress = ProgressLine()
         clean_end: dict[str, float] = {}
         while not self.stopping:
             time.sleep(0.5)
@@ -221,6 +224,9 @@ class Run:
                 if status != 0 or now - clean_end[name] > QUIET_END:
                     say(f'{name} ended ({describe(status)}) during the run: stopping the run')
                     return 'failed'
+            if now - shown >= PROGRESS_EVERY and 'supervisor' in self.nodes:
+                say(progress.line(read_progress(self.out), now - started))
+                shown = now
             if now - noted >= NOTE_SHM_EVERY:
                 self.note_shm()
                 noted = now
@@ -243,8 +249,8 @@ class Run:
     def stop(self) -> None:
         """Stop every node still running with the signal ladder, then remove our /dev/shm
         leftovers: our domain's port files and the files our nodes mapped, unless in use."""
-        self.note_shm()
-        self.needed.update(stop_groups(list(self.nodes.values()), say=say))
+        self.needed.update(stop_groups(list(self.nodes.values()), say=say,
+                                       signalled=self.note_shm))
         remove_shm_leftovers(self.domain, self.seen_shm)
 
     def verdict(self, outcome: str) -> int:
@@ -273,34 +279,6 @@ class Run:
                 continue
             failures += 1
         return failures
-
-
-def claim_out(out: Path, overwrite: bool) -> None:
-    """Make ``out`` ready for the run (:func:`~swarm_supervisor.outputs.guard.claim_output`):
-    a folder holding an earlier record, also a node-system run that the guard's markers miss
-    (:func:`~swarm_supervisor.system.preflight.node_run_in`), is refused unless
-    ``overwrite``, which deletes it whole: a run never writes beside an old bag.
-
-    Raises:
-        RecordExists: naming the folder, what it holds and ``--overwrite``.
-    """
-    claim_output(out, overwrite=overwrite)
-    marker = node_run_in(out)
-    if marker is None:
-        return
-    if not overwrite:
-        raise RecordExists(f'--out {out} already holds a node-system run ({marker}): choose '
-                           'another --out, or pass --overwrite to replace it whole')
-    shutil.rmtree(out)
-
-
-def default_out() -> Path:
-    """results/swarm-<date>-<time>, with -2, -3, ... if a run of the same second has it."""
-    base = REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
-    out, n = base, 2
-    while out.exists():
-        out, n = base.with_name(f'{base.name}-{n}'), n + 1
-    return out
 
 
 def launch(options: argparse.Namespace) -> int:
@@ -362,6 +340,9 @@ def launch(options: argparse.Namespace) -> int:
     network = f', peers {",".join(options.peers)} (here {address})' if options.peers else ''
     say(f'domain {domain}, {population} robots, {options.episodes} episode(s), '
         f'{options.mode}{part}{network}, output {out}')
+    if options.live:
+        say(f'live view: ws://localhost:{options.live_port} (Foxglove: Open connection, '
+            'Foxglove WebSocket)')
     outcome = ''
     try:
         for name, command in node_commands(options, population, out, executables).items():

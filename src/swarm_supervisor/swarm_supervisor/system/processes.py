@@ -214,7 +214,8 @@ def wait_gone(processes: Sequence[subprocess.Popen], seconds: float,
               interrupted: Callable[[], bool] = lambda: False) -> bool:
     """Wait until none of ``processes`` runs (True), ``seconds`` pass or ``interrupted()``."""
     deadline = time.monotonic() + seconds
-    while any(process.poll() is None for process in processes):
+    # Poll every one (a list, not any()): each ended process is reaped at once, no zombie.
+    while [process for process in processes if process.poll() is None]:
         if time.monotonic() >= deadline or interrupted():
             return False
         time.sleep(0.2)
@@ -222,10 +223,13 @@ def wait_gone(processes: Sequence[subprocess.Popen], seconds: float,
 
 
 def stop_groups(processes: Sequence[subprocess.Popen], grace: float = LADDER[0][1],
-                say: Callable[[str], None] | None = None) -> dict[int, signal.Signals]:
+                say: Callable[[str], None] | None = None,
+                signalled: Callable[[], None] | None = None) -> dict[int, signal.Signals]:
     """Stop the process groups of ``processes``: each signal of :data:`LADDER` to the groups
     whose leader still runs, the first one followed by ``grace`` seconds. ``say`` hears each
-    escalation. Returns pid -> the last signal that process needed (none if it had ended)."""
+    escalation; ``signalled()`` runs once the first signal is out (within its wait: slow work
+    on a loaded machine must not delay the signal). Returns pid -> the last signal that
+    process needed (none if it had ended)."""
     needed: dict[int, signal.Signals] = {}
     previous = None
     for sig, wait in ((LADDER[0][0], grace), *LADDER[1:]):
@@ -236,10 +240,13 @@ def stop_groups(processes: Sequence[subprocess.Popen], grace: float = LADDER[0][
             note = ' (stacks in their logs)' if sig == signal.SIGABRT else ''
             say(f'{sig.name} to {len(live)} process(es) still running {previous[1]:g} s after '
                 f'{previous[0].name}{note}')
+        began = time.monotonic()
         for process in live:
             needed[process.pid] = sig
             signal_group(process, sig)
-        if wait_gone(live, wait):
+        if signalled is not None and previous is None:
+            signalled()
+        if wait_gone(live, wait - (time.monotonic() - began)):
             break
         previous = (sig, wait)
     for process in processes:  # anything left in a group whose leader is gone

@@ -47,6 +47,7 @@ from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.system.progress import ProgressFile
 from swarm_world.placement import PlacementError
 
 RUN_FILE = 'run.json'
@@ -95,6 +96,10 @@ class Supervisor(Node):
         self.announcement: Announcement | None = None  #: the latest episode announced
         self.records: list[dict] = []
         self.recorders = RecorderBook(recorder_names(self.options.recorders))
+        #: <output_dir>/progress.json, for the launcher's progress line
+        self.progress = ProgressFile(Path(self.options.output_dir), self.options.episodes,
+                                     self.config.episode.duration) \
+            if self.options.output_dir else None
         self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
         self.create_subscription(String, qos.STATUS, self._on_status, qos.STATUS_QOS)
         self.create_subscription(String, qos.RECORDERS, self._on_recorder, qos.RECORDERS_QOS)
@@ -104,6 +109,12 @@ class Supervisor(Node):
             self.status = WorldStatus.from_json(msg.data)
         except ContractError as error:
             self.get_logger().warning(str(error), throttle_duration_sec=5.0)
+            return
+        if self.progress is not None:
+            try:
+                self.progress.note(self.status)
+            except OSError as error:  # only the progress line suffers
+                self.get_logger().warning(f'progress.json: {error}', throttle_duration_sec=60.0)
 
     def _on_recorder(self, msg: String) -> None:
         try:
