@@ -42,6 +42,7 @@ from mona_controller.contract import (
     WorldStatus,
     recorder_names,
 )
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
@@ -269,7 +270,12 @@ class Supervisor(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``supervisor_node [--ros-args ...]``: 0 once every episode finished."""
-    rclpy.init(args=args)
+    argv = list(sys.argv if args is None else args)
+    parse_node_args(node_parser('supervisor_node', __doc__.split('\n')[0],
+                                sections={'': SupervisorParams},
+                                statuses={0: 'every episode finished and its record complete',
+                                          130: 'stopped by SIGINT / SIGTERM'}), argv[1:])
+    rclpy.init(args=argv)
     node = None
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     logger = rclpy.logging.get_logger('supervisor')
