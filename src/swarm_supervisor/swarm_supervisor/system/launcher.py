@@ -307,6 +307,8 @@ def launch(options: argparse.Namespace) -> int:
     except ParameterError as error:
         say(f'bad parameter: {error}')
         return exits.USAGE
+    except KeyboardInterrupt:  # Ctrl-C during the checks: nothing started, no traceback
+        return exits.INTERRUPTED
     out = options.out or default_out()
     try:
         claim_out(out, getattr(options, 'overwrite', False))

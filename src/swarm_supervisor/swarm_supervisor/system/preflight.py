@@ -101,16 +101,21 @@ def domain_capacity(domain: int | None) -> int:
     return max(0, min(PARTICIPANTS, (65535 - (7400 + 250 * domain + 11)) // 2 + 1))
 
 
+#: Episodes whose placement :func:`check_fit` tries (600 robots take about 40 ms each); a
+#: later seed that cannot be placed fails the supervisor, naming it.
+FIT_EPISODES = 50
+
+
 def check_fit(config: SwarmConfig, episodes: int, option: str = '--population') -> None:
     """Every episode's robots can be placed: the placement the supervisor node will do (the
     embedded runner's, :func:`~swarm_supervisor.engine.episode.place_swarm`) for the seed of
-    each episode (``episode.seed + k``).
+    each episode (``episode.seed + k``), the first :data:`FIT_EPISODES` of them.
 
     Raises:
         UsageError: naming the population, the arena and the largest one that could fit.
     """
     population = config.episode.population
-    for k in range(episodes):
+    for k in range(min(episodes, FIT_EPISODES)):
         seed = config.episode.seed + k
         try:
             place_swarm(config, seed)
