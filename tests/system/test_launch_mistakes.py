@@ -22,9 +22,13 @@ MANY = 60
 STOP_LIMIT = 15.0
 
 
-def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm):
+@pytest.mark.parametrize('after', [3.0, pytest.param(20.0, marks=pytest.mark.slow)],
+                         ids=['spawning', 'discovery'])
+def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
     run = swarm('--population', str(MANY), '--duration', '3000', '--seed', '1')
-    time.sleep(3.0)  # the launcher is spawning, the controllers are importing rclpy
+    # 3 s: the launcher is spawning, the controllers import rclpy; 20 s: every process has
+    # started, the nodes discover each other (on a loaded machine, some still start).
+    time.sleep(after)
     assert run.process.poll() is None, run.stderr
     os.kill(run.process.pid, signal.SIGTERM)
     sent = time.monotonic()
@@ -35,8 +39,9 @@ def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm):
                                              if group_alive(pgid)]
         time.sleep(0.1)
     took = time.monotonic() - sent
-    print(f'\nSIGTERM during start-up: {len(run.nodes())} processes started, the script '
-          f'ended with {status} and every process was gone {took:.1f} s after the signal')
+    print(f'\nSIGTERM {after:g} s into the start-up: {len(run.nodes())} processes started, '
+          f'the script ended with {status} and every process was gone {took:.1f} s after the '
+          'signal')
     assert status == 143, run.stderr
     assert 'SIGTERM received' in run.stderr
     assert took < STOP_LIMIT
