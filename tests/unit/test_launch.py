@@ -186,9 +186,27 @@ def test_sigabrt_writes_the_stack_of_a_node_deaf_to_sigint_and_sigterm(tmp_path:
     needed = stop_groups([process], grace=0.5, say=said.append)
     assert needed == {process.pid: signal.SIGABRT}
     assert process.returncode == -signal.SIGABRT
-    assert said[-1] == ('SIGABRT to 1 process(es) still running 5 s after SIGTERM '
+    assert said[-1] == ('SIGABRT to 1 process(es) still running 2 s after SIGTERM '
                         '(stacks in their logs)')
     assert 'Fatal Python error: Aborted' in log.read_text()  # PYTHONFAULTHANDLER=1
+
+
+def test_the_ladder_signals_every_group_at_once_and_ends_within_ten_seconds(tmp_path: Path):
+    from swarm_supervisor.system.processes import LADDER
+    assert sum(wait for _, wait in LADDER) <= 10.5  # a stopped run is gone within 15 s
+    # 20 nodes deaf to SIGINT (the shell and its sleep ignore it): each needs SIGTERM.
+    deaf = [start_group(['sh', '-c', 'trap "" INT; sleep 60 & echo ready; wait'],
+                        tmp_path / f'deaf_{k}.log', ros_environment(0)) for k in range(20)]
+    deadline = time.monotonic() + 60
+    while not all('ready' in (tmp_path / f'deaf_{k}.log').read_text() for k in range(20)):
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    began = time.monotonic()
+    needed = stop_groups(deaf, grace=1.0)
+    took = time.monotonic() - began
+    assert set(needed.values()) == {signal.SIGTERM}
+    assert took < 1.0 + 2.0, took  # one SIGINT wait and one SIGTERM wait, not one per node
+    assert not any(group_pids(process.pid) for process in deaf)
 
 
 def test_a_node_runs_in_its_own_group_with_sigint_and_no_core(tmp_path: Path):

@@ -10,7 +10,6 @@ it from ``(seed, robot_id)``. ``--robots 0-9`` hosts several robots' nodes in on
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import re
 import sys
@@ -39,6 +38,7 @@ from mona_controller.messages import (
     stamp_to_ns,
 )
 from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.pairing import RateLimitedLog, ReadingPairs
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, differences, param, validate
@@ -232,13 +232,13 @@ def parse_robots(spec: str) -> list[int]:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``mona_controller_node [--robots IDS] [--ros-args ...]``."""
-    rclpy.init(args=args)
-    argv = rclpy.utilities.remove_ros_args(args if args is not None else sys.argv)[1:]
-    parser = argparse.ArgumentParser(prog='mona_controller_node', description=__doc__.split(
-        '\n')[0])
+    argv = list(sys.argv if args is None else args)
+    parser = node_parser('mona_controller_node', __doc__.split('\n')[0], sections={
+        '': ControllerNodeParams, 'controller.': ControllerParams, 'mona.': MonaParams})
     parser.add_argument('--robots', help='robot ids hosted by this process as separate nodes '
                         '(3, 0-9, 0,2,5-7); default: one robot from robot_id or the namespace')
-    options = parser.parse_args(argv)
+    options = parse_node_args(parser, argv[1:])  # --help: before any node starts
+    rclpy.init(args=argv)
     logger = rclpy.logging.get_logger('mona_controller')
     nodes: list[ControllerNode] = []
     status = 1  # an exception that escapes is a failure, also if teardown then hangs

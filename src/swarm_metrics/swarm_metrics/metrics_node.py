@@ -35,6 +35,7 @@ from std_msgs.msg import Float64, String
 
 from mona_controller import qos
 from mona_controller.contract import RecorderReport, RecorderState
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
@@ -284,7 +285,11 @@ class MetricsNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Run the metrics node until the shutdown announcement, a signal or a lost world."""
-    rclpy.init(args=args)
+    argv = list(sys.argv if args is None else args)
+    parse_node_args(node_parser('metrics_node', __doc__.split('\n')[0],
+                                sections={'': MetricsNodeParams},
+                                statuses={3: 'the world was lost (its bag closed)'}), argv[1:])
+    rclpy.init(args=argv)
     node = None
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:

@@ -50,6 +50,7 @@ from mona_controller.messages import (
     stamp_to_ns,
 )
 from mona_controller.mona import MonaParams
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
@@ -550,7 +551,10 @@ class WorldNode(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``world_node [--ros-args ...]``; exits when the run is over."""
-    rclpy.init(args=args)
+    argv = list(sys.argv if args is None else args)
+    parse_node_args(node_parser('world_node', __doc__.split('\n')[0], sections={
+        '': WorldNodeParams, 'world.': WorldParams, 'mona.': MonaParams}), argv[1:])
+    rclpy.init(args=argv)
     node = None
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:

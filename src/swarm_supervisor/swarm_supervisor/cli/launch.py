@@ -96,6 +96,9 @@ def add_options(parser: argparse.ArgumentParser) -> None:
         help='seed of the first episode (default: episode.seed)')
     add('--out', type=Path, metavar='DIR',
         help='output folder (default results/swarm-<date>-<time>)')
+    add('--overwrite', action='store_true',
+        help='--out may hold an earlier run (or another record): delete it whole first '
+             '(default: refuse, exit 2)')
     add('--mode', choices=('lockstep', 'realtime'), default='lockstep',
         help='stepping (default lockstep)')
     add('--config', type=_file, default=str(DEFAULT_CONFIG), metavar='YAML',

@@ -26,16 +26,19 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
+from swarm_supervisor.outputs.guard import RecordExists
+from swarm_supervisor.system.out_folder import claim_out, default_out
 from swarm_supervisor.system.preflight import (
     UsageError,
+    check_fit,
     check_parameters,
+    check_participants,
     check_roles,
     forced_domain,
     run_overrides,
 )
 from swarm_supervisor.system.processes import (
     PROFILE,
-    REPO,
     claim_domain,
     describe,
     groups_shm,
@@ -49,6 +52,7 @@ from swarm_supervisor.system.processes import (
     wait_gone,
     write_ros_env,
 )
+from swarm_supervisor.system.progress import ProgressLine, read_progress
 
 PROG = 'mona-swarm launch'
 #: Node kind -> (package, executable).
@@ -64,6 +68,8 @@ BAG_GRACE = 30.0
 QUIET_END = 10.0
 #: Seconds between two looks at the /dev/shm files the nodes map.
 NOTE_SHM_EVERY = 10.0
+#: Wall seconds between two progress lines on stderr.
+PROGRESS_EVERY = 10.0
 #: What each ``--role`` starts: the whole system on one host, or the part for one host
 #: ('supervision': the core without the world, for a driver of real Monas that replaces it).
 ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
@@ -197,7 +203,8 @@ class Run:
         has ended ('finished'): controllers end on the supervisor's shutdown announcement,
         wherever the supervisor runs.
         """
-        started = noted = time.monotonic()
+        started = noted = shown = time.monotonic()
+        progress = ProgressLine()
         clean_end: dict[str, float] = {}
         while not self.stopping:
             time.sleep(0.5)
@@ -217,6 +224,9 @@ class Run:
                 if status != 0 or now - clean_end[name] > QUIET_END:
                     say(f'{name} ended ({describe(status)}) during the run: stopping the run')
                     return 'failed'
+            if now - shown >= PROGRESS_EVERY and 'supervisor' in self.nodes:
+                say(progress.line(read_progress(self.out), now - started))
+                shown = now
             if now - noted >= NOTE_SHM_EVERY:
                 self.note_shm()
                 noted = now
@@ -239,8 +249,8 @@ class Run:
     def stop(self) -> None:
         """Stop every node still running with the signal ladder, then remove our /dev/shm
         leftovers: our domain's port files and the files our nodes mapped, unless in use."""
-        self.note_shm()
-        self.needed.update(stop_groups(list(self.nodes.values()), say=say))
+        self.needed.update(stop_groups(list(self.nodes.values()), say=say,
+                                       signalled=self.note_shm))
         remove_shm_leftovers(self.domain, self.seen_shm)
 
     def verdict(self, outcome: str) -> int:
@@ -282,6 +292,11 @@ def launch(options: argparse.Namespace) -> int:
         if options.role != 'all' and domain is None:
             raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
                              'host), so that the hosts of the run find each other')
+        if 'supervisor' in ROLES[options.role]:  # the supervisor places the robots
+            check_fit(config, options.episodes,
+                      '--population' if options.population is not None else
+                      'episode.population')
+        check_participants(options, config.episode.population, domain)
         address = local_address(options.peers) if options.peers else None
         if options.peers and address is None:
             raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
@@ -292,11 +307,17 @@ def launch(options: argparse.Namespace) -> int:
     except ParameterError as error:
         say(f'bad parameter: {error}')
         return exits.USAGE
-    out = options.out or REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    except KeyboardInterrupt:  # Ctrl-C during the checks: nothing started, no traceback
+        return exits.INTERRUPTED
+    out = options.out or default_out()
     try:
+        claim_out(out, getattr(options, 'overwrite', False))
         (out / 'logs').mkdir(parents=True, exist_ok=True)
-    except OSError:
-        say(f"cannot create '{out / 'logs'}'")
+    except RecordExists as error:
+        say(str(error))
+        return exits.USAGE
+    except OSError as error:
+        say(f"cannot create '{out / 'logs'}': {error.strerror or error}")
         return exits.USAGE
     out = out.resolve()
     lock = None
@@ -321,9 +342,14 @@ def launch(options: argparse.Namespace) -> int:
     network = f', peers {",".join(options.peers)} (here {address})' if options.peers else ''
     say(f'domain {domain}, {population} robots, {options.episodes} episode(s), '
         f'{options.mode}{part}{network}, output {out}')
+    if options.live:
+        say(f'live view: ws://localhost:{options.live_port} (Foxglove: Open connection, '
+            'Foxglove WebSocket)')
     outcome = ''
     try:
         for name, command in node_commands(options, population, out, executables).items():
+            if run.stopping:  # a signal while spawning: start no more, stop what started
+                break
             run.start(name, command)
         outcome = run.wait()
         if run.stopping:

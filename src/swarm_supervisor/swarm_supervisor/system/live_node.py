@@ -27,6 +27,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 
 from mona_controller import qos
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
@@ -157,7 +158,11 @@ class LiveNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Run the live node until the shutdown announcement or a signal."""
-    rclpy.init(args=args)
+    argv = list(sys.argv if args is None else args)
+    parse_node_args(node_parser('live_node', __doc__.split('\n')[0],
+                                sections={'': LiveNodeParams},
+                                statuses={2: 'a bad parameter, or the port is taken'}), argv[1:])
+    rclpy.init(args=argv)
     node = None
     status = 1
     try:

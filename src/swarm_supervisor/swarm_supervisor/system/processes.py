@@ -32,11 +32,14 @@ SHM_PREFIXES = ('fastrtps_', 'fast_datasharing', 'sem.fastrtps_')
 #: Domains 1..100 keep every Fast DDS port below Linux's ephemeral range (32768).
 DOMAINS = range(1, 101)
 LOCK_DIR = Path('/tmp')
-#: The polite stop: each signal to the groups still running, then that many seconds' wait. A
-#: node stuck in native code never runs Python's handlers; SIGABRT then makes the fault handler
-#: (PYTHONFAULTHANDLER=1) write every thread's stack to its log before SIGKILL.
-LADDER = ((signal.SIGINT, 20.0), (signal.SIGTERM, 5.0), (signal.SIGABRT, 3.0),
-          (signal.SIGKILL, 5.0))
+#: The polite stop: each signal to every group still running at once, then that many seconds'
+#: wait. A node stuck in native code never runs Python's handlers; SIGABRT then makes the fault
+#: handler (PYTHONFAULTHANDLER=1) write every thread's stack to its log before SIGKILL. 10.5 s
+#: in all, so a stopped run is gone within the 15 s a user waits: a clean teardown of 51
+#: processes at once takes about 5 s at most (docs/reliability.md), and a node closes its
+#: outputs (the bag) before its teardown, so SIGTERM 6 s after SIGINT loses nothing.
+LADDER = ((signal.SIGINT, 6.0), (signal.SIGTERM, 2.0), (signal.SIGABRT, 1.5),
+          (signal.SIGKILL, 1.0))
 
 
 def domain_ports_free(domain: int) -> bool:
@@ -211,7 +214,8 @@ def wait_gone(processes: Sequence[subprocess.Popen], seconds: float,
               interrupted: Callable[[], bool] = lambda: False) -> bool:
     """Wait until none of ``processes`` runs (True), ``seconds`` pass or ``interrupted()``."""
     deadline = time.monotonic() + seconds
-    while any(process.poll() is None for process in processes):
+    # Poll every one (a list, not any()): each ended process is reaped at once, no zombie.
+    while [process for process in processes if process.poll() is None]:
         if time.monotonic() >= deadline or interrupted():
             return False
         time.sleep(0.2)
@@ -219,10 +223,13 @@ def wait_gone(processes: Sequence[subprocess.Popen], seconds: float,
 
 
 def stop_groups(processes: Sequence[subprocess.Popen], grace: float = LADDER[0][1],
-                say: Callable[[str], None] | None = None) -> dict[int, signal.Signals]:
+                say: Callable[[str], None] | None = None,
+                signalled: Callable[[], None] | None = None) -> dict[int, signal.Signals]:
     """Stop the process groups of ``processes``: each signal of :data:`LADDER` to the groups
     whose leader still runs, the first one followed by ``grace`` seconds. ``say`` hears each
-    escalation. Returns pid -> the last signal that process needed (none if it had ended)."""
+    escalation; ``signalled()`` runs once the first signal is out (within its wait: slow work
+    on a loaded machine must not delay the signal). Returns pid -> the last signal that
+    process needed (none if it had ended)."""
     needed: dict[int, signal.Signals] = {}
     previous = None
     for sig, wait in ((LADDER[0][0], grace), *LADDER[1:]):
@@ -233,10 +240,13 @@ def stop_groups(processes: Sequence[subprocess.Popen], grace: float = LADDER[0][
             note = ' (stacks in their logs)' if sig == signal.SIGABRT else ''
             say(f'{sig.name} to {len(live)} process(es) still running {previous[1]:g} s after '
                 f'{previous[0].name}{note}')
+        began = time.monotonic()
         for process in live:
             needed[process.pid] = sig
             signal_group(process, sig)
-        if wait_gone(live, wait):
+        if signalled is not None and previous is None:
+            signalled()
+        if wait_gone(live, wait - (time.monotonic() - began)):
             break
         previous = (sig, wait)
     for process in processes:  # anything left in a group whose leader is gone

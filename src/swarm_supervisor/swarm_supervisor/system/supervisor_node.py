@@ -42,11 +42,13 @@ from mona_controller.contract import (
     WorldStatus,
     recorder_names,
 )
+from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.system.progress import ProgressFile
 from swarm_world.placement import PlacementError
 
 RUN_FILE = 'run.json'
@@ -95,6 +97,10 @@ class Supervisor(Node):
         self.announcement: Announcement | None = None  #: the latest episode announced
         self.records: list[dict] = []
         self.recorders = RecorderBook(recorder_names(self.options.recorders))
+        #: <output_dir>/progress.json, for the launcher's progress line
+        self.progress = ProgressFile(Path(self.options.output_dir), self.options.episodes,
+                                     self.config.episode.duration) \
+            if self.options.output_dir else None
         self.episode_pub = self.create_publisher(String, qos.EPISODE, qos.EPISODE_QOS)
         self.create_subscription(String, qos.STATUS, self._on_status, qos.STATUS_QOS)
         self.create_subscription(String, qos.RECORDERS, self._on_recorder, qos.RECORDERS_QOS)
@@ -104,6 +110,12 @@ class Supervisor(Node):
             self.status = WorldStatus.from_json(msg.data)
         except ContractError as error:
             self.get_logger().warning(str(error), throttle_duration_sec=5.0)
+            return
+        if self.progress is not None:
+            try:
+                self.progress.note(self.status)
+            except OSError as error:  # only the progress line suffers
+                self.get_logger().warning(f'progress.json: {error}', throttle_duration_sec=60.0)
 
     def _on_recorder(self, msg: String) -> None:
         try:
@@ -258,7 +270,12 @@ class Supervisor(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``supervisor_node [--ros-args ...]``: 0 once every episode finished."""
-    rclpy.init(args=args)
+    argv = list(sys.argv if args is None else args)
+    parse_node_args(node_parser('supervisor_node', __doc__.split('\n')[0],
+                                sections={'': SupervisorParams},
+                                statuses={0: 'every episode finished and its record complete',
+                                          130: 'stopped by SIGINT / SIGTERM'}), argv[1:])
+    rclpy.init(args=argv)
     node = None
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     logger = rclpy.logging.get_logger('supervisor')

@@ -1,0 +1,41 @@
+"""The launcher's output folder: the default one is always new, and a given ``--out`` never
+receives a run over an earlier record (outputs.guard's rule, plus the files a node-system run
+leaves, :func:`~swarm_supervisor.system.preflight.node_run_in`)."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+from swarm_supervisor.outputs.guard import RecordExists, claim_output
+from swarm_supervisor.system.preflight import node_run_in
+from swarm_supervisor.system.processes import REPO
+
+
+def claim_out(out: Path, overwrite: bool) -> None:
+    """Make ``out`` ready for the run (:func:`~swarm_supervisor.outputs.guard.claim_output`):
+    a folder holding an earlier record, also a node-system run that the guard's markers miss
+    (:func:`~swarm_supervisor.system.preflight.node_run_in`), is refused unless
+    ``overwrite``, which deletes it whole: a run never writes beside an old bag.
+
+    Raises:
+        RecordExists: naming the folder, what it holds and ``--overwrite``.
+    """
+    claim_output(out, overwrite=overwrite)
+    marker = node_run_in(out)
+    if marker is None:
+        return
+    if not overwrite:
+        raise RecordExists(f'--out {out} already holds a node-system run ({marker}): choose '
+                           'another --out, or pass --overwrite to replace it whole')
+    shutil.rmtree(out)
+
+
+def default_out() -> Path:
+    """results/swarm-<date>-<time>, with -2, -3, ... if a run of the same second has it."""
+    base = REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    out, n = base, 2
+    while out.exists():
+        out, n = base.with_name(f'{base.name}-{n}'), n + 1
+    return out

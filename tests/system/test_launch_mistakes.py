@@ -1,0 +1,61 @@
+"""scripts/swarm.sh when the user makes a mistake (issue 20): a run stopped during its
+start-up is gone within 15 s, and a run that cannot work is refused before a node starts."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from swarmrun import SWARM, group_alive
+
+pytestmark = pytest.mark.ros
+
+#: Robots of the start-up test: 63 DDS participants at one per process, within one domain.
+MANY = 60
+#: How long a user waits, after Ctrl-C or SIGTERM, for every process of the run to be gone.
+STOP_LIMIT = 15.0
+
+
+@pytest.mark.parametrize('after', [3.0, pytest.param(20.0, marks=pytest.mark.slow)],
+                         ids=['spawning', 'discovery'])
+def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
+    run = swarm('--population', str(MANY), '--duration', '3000', '--seed', '1')
+    # 3 s: the launcher is spawning, the controllers import rclpy; 20 s: every process has
+    # started, the nodes discover each other (on a loaded machine, some still start).
+    time.sleep(after)
+    assert run.process.poll() is None, run.stderr
+    os.kill(run.process.pid, signal.SIGTERM)
+    sent = time.monotonic()
+    status = run.wait(60)
+    deadline = sent + STOP_LIMIT
+    while any(group_alive(pgid) for pgid in run.nodes().values()):
+        assert time.monotonic() < deadline, [name for name, pgid in run.nodes().items()
+                                             if group_alive(pgid)]
+        time.sleep(0.1)
+    took = time.monotonic() - sent
+    print(f'\nSIGTERM {after:g} s into the start-up: {len(run.nodes())} processes started, '
+          f'the script ended with {status} and every process was gone {took:.1f} s after the '
+          'signal')
+    assert status == 143, run.stderr
+    assert 'SIGTERM received' in run.stderr
+    assert took < STOP_LIMIT
+
+
+def test_an_impossible_population_is_refused_before_any_node_starts(tmp_path: Path):
+    out = tmp_path / 'run'
+    env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}'
+               f'{os.environ.get("PATH", "")}')
+    began = time.monotonic()
+    done = subprocess.run([str(SWARM), '--population', '2000', '--out', str(out)], env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2, done.stderr
+    assert 'does not fit' in done.stderr and '--population' in done.stderr
+    assert 'Traceback' not in done.stderr
+    assert not (out / 'processes.tsv').exists() and not (out / 'logs').exists()
+    assert time.monotonic() - began < 10
