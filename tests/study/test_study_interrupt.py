@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -55,7 +56,6 @@ def stop_once_written(process: subprocess.Popen, out: Path, count: int) -> None:
 
 
 def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(config, tmp_path):
-    import re
     out = tmp_path / 'stopped'
     process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
