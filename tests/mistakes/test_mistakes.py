@@ -7,12 +7,16 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import cases_study
 import pytest
 
 import cases_run
 from mistake import Mistake, folder_digest, run_mistake
 
-TABLE: list[Mistake] = [*cases_run.CASES]
+TABLE: list[Mistake] = [
+    *cases_run.CASES,
+    *cases_study.CASES,
+]
 
 
 @pytest.mark.parametrize('mistake', TABLE, ids=[m.name for m in TABLE])
