@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import signal
 import sys
 import time
 from pathlib import Path
@@ -26,11 +27,10 @@ def register(subparsers) -> None:
                     '(resuming a partly finished --out), then write all_metrics.csv, figures '
                     '3-6, the ANOVA tables and report.md into --out. With --from-episodes, '
                     'run nothing and analyse the episode folders found there instead (e.g. '
-                    'from `mona-swarm analyze` on ROS bags). Ctrl-C finishes the running '
-                    'batches and stops (again: stops at once); rerun the same command to '
-                    'resume. See docs/study.md.',
-        epilog=exits.HELP + '; 130 also when Ctrl-C stopped the study after it finished '
-               'the running batches.')
+                    'from `mona-swarm analyze` on ROS bags). Ctrl-C or SIGTERM stops at once: '
+                    'finished episodes are kept, the running batches are cut, and the same '
+                    'command resumes. See docs/study.md.',
+        epilog=exits.HELP + '.')
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
                         help='output folder (created; a study of the same design in it is '
                              'resumed; one of another design, or another record, is refused '
@@ -102,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
                                videos=args.videos, overwrite=args.overwrite,
                                batch_size=args.batch_size or study.DEFAULT_BATCH_SIZE)
     except study.Interrupted as stopped:
+        for signum in (signal.SIGINT, signal.SIGTERM):  # only the message is left to do
+            signal.signal(signum, signal.SIG_IGN)
         print(f'mona-swarm study: {stopped.message()}', file=sys.stderr)
         return stopped.status
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]

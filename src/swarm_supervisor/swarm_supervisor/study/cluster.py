@@ -24,7 +24,7 @@ from tqdm import tqdm
 
 from swarm_supervisor import outputs
 from swarm_supervisor.study.errors import StudyError
-from swarm_supervisor.study.interrupt import Interrupted, StopRequest
+from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.progress import show_done
 from swarm_supervisor.study.tasks import (
     EpisodeTask,
@@ -81,9 +81,8 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
                    ) -> dict[str, tuple[float, float]]:
     """Run the batches of tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
 
-    Episodes are written as they finish; Ctrl-C (the first one: the cluster's batches are
-    not known to be running or queued, so none is waited for), SIGTERM or a failed episode
-    cancels the rest (the finished ones stay, and the next call resumes from them).
+    Episodes are written as they finish; Ctrl-C, SIGTERM or a failed episode cancels the
+    rest (the finished ones stay, and the next call resumes from them).
 
     Returns:
         folder -> (wall seconds, CPU seconds) of each episode, on its worker.
@@ -106,7 +105,6 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
             from None
     ran: dict[str, tuple[float, float]] = {}
     futures = []
-    stop = StopRequest(graceful=False).__enter__()  # left in the finally clause below
     try:
         # Keys name the batch's first episode and its study folder, so two studies never
         # share a task.
@@ -128,5 +126,4 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
     finally:
         client.cancel([f for f in futures if not f.done()])
         client.close()
-        stop.__exit__()
     return ran

@@ -1,23 +1,20 @@
 """Stopping a study on request without losing a finished episode.
 
-While episodes run, the parent process handles the signals itself (:class:`StopRequest`):
+While episodes run, the parent process handles SIGINT (Ctrl-C) and SIGTERM itself
+(:class:`StopRequest`): either stops the study at once. The running batches are cut: their
+episodes, which a batch steps together and which all end together at its duration, are
+lost and run again next time, while every episode finished before stays (each episode folder
+is written under a temporary name and renamed into place, so a stop, or a second Ctrl-C,
+never leaves one half-written). A stop is prompt, as a process manager's SIGTERM grace
+period needs, and loses at most one batch's time on each worker.
 
-- the first SIGINT (Ctrl-C) starts no more batches, lets the running ones finish (a batch's
-  episodes all end together, at its duration; each is written as it ends) and then stops:
-  nothing that was already computed is thrown away;
-- a second SIGINT stops at once: the running batches are cut and their episodes lost (each
-  episode folder is written under a temporary name and renamed into place, so none is left
-  half-written);
-- SIGTERM (a process manager, a cluster's preemption) stops at once, as a second Ctrl-C.
-
-Either way the study raises :class:`Interrupted`, and the command line says how many
-episodes are kept and exits 130 (SIGINT) or 143 (SIGTERM); the same command resumes.
+The study then raises :class:`Interrupted`; the command line says how many episodes are kept
+and exits 130 (SIGINT) or 143 (SIGTERM); the same command resumes.
 """
 
 from __future__ import annotations
 
 import signal
-import sys
 import threading
 from types import FrameType
 from typing import Any
@@ -28,9 +25,10 @@ from swarm_supervisor import exits
 STATUS = {signal.SIGINT: exits.INTERRUPTED, signal.SIGTERM: exits.TERMINATED}
 
 
-class Interrupted(Exception):
+class Interrupted(KeyboardInterrupt):
     """The study stopped on a signal; ``ran`` holds what finished before (folder -> (wall s,
-    CPU s)), ``signum`` the first signal received."""
+    CPU s)), ``signum`` the first signal received. A KeyboardInterrupt, so code that cleans
+    up after Ctrl-C does so after SIGTERM too."""
 
     def __init__(self, signum: int, ran: dict[str, tuple[float, float]] | None = None) -> None:
         super().__init__(f'stopped by {signal.Signals(signum).name}')
@@ -43,8 +41,9 @@ class Interrupted(Exception):
 
     def message(self) -> str:
         """What the command line says: how much is kept, and how to go on."""
-        return (f'{self.name}: {self.kept} of {self.total} episodes kept in {self.folder}; '
-                'rerun the same command to resume')
+        return (f'interrupted by {self.name}: {self.kept} of {self.total} episodes kept in '
+                f'{self.folder} (the running batches were cut); rerun the same command to '
+                'resume')
 
     @property
     def status(self) -> int:
@@ -58,19 +57,12 @@ class Interrupted(Exception):
 
 
 class StopRequest:
-    """Signal handlers for the time episodes run (a context manager; it restores the
-    previous handlers on exit).
+    """Signal handlers for the time episodes run: SIGINT and SIGTERM raise
+    :class:`Interrupted` in the main thread (a context manager; it restores the previous
+    handlers on exit). A later signal while the study stops (terminating the workers,
+    recording what it kept) changes nothing."""
 
-    Args:
-        graceful: the first SIGINT only sets :attr:`requested` (the caller stops starting
-            batches and finishes the running ones); false: it stops at once, as SIGTERM.
-        running: called in the handler for a description of what will still be finished,
-            e.g. '2 running batches (30 episodes)'.
-    """
-
-    def __init__(self, *, graceful: bool = True, running: Any = None) -> None:
-        self.graceful = graceful
-        self.running = running
+    def __init__(self) -> None:
         #: The first signal received, or None.
         self.requested: int | None = None
         self._previous: dict[int, Any] = {}
@@ -86,17 +78,7 @@ class StopRequest:
             signal.signal(signum, handler)
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
-        first = self.requested is None
-        if first:
-            self.requested = signum
-        if first and self.graceful and signum == signal.SIGINT:
-            what = self.running() if self.running else 'the running batches'
-            print(f'\nmona-swarm study: SIGINT: finishing {what} and starting no more '
-                  '(Ctrl-C again to stop now and lose them)', file=sys.stderr, flush=True)
-            return
-        raise Interrupted(self.requested or signum)
-
-    def check(self, ran: dict[str, tuple[float, float]]) -> None:
-        """Raise :class:`Interrupted` (with ``ran``) if a stop was requested."""
         if self.requested is not None:
-            raise Interrupted(self.requested, ran)
+            return  # already stopping: let the cleanup finish
+        self.requested = signum
+        raise Interrupted(signum)

@@ -30,7 +30,7 @@ from swarm_supervisor.study.folder import (
     TIMING_FILE,
     claim_study_folder,
 )
-from swarm_supervisor.study.interrupt import Interrupted
+from swarm_supervisor.study.interrupt import Interrupted, StopRequest
 from swarm_supervisor.study.local import available_cpus, run_local
 from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
@@ -162,14 +162,16 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
         })
         return complete
 
-    try:
-        jobs, ran = run_tasks(pending, jobs=jobs, progress=progress,
-                              start_method=start_method, scheduler=scheduler,
-                              scheduler_timeout=scheduler_timeout, batch_size=batch_size)
-    except Interrupted as stopped:
-        stopped.kept = record(stopped.ran, jobs or 0, f'interrupted by {stopped.name}')
-        stopped.total, stopped.folder = len(specs), str(out)
-        raise
+    # The handlers stay while the stop is recorded: a second Ctrl-C cannot cut that short.
+    with StopRequest():
+        try:
+            jobs, ran = run_tasks(pending, jobs=jobs, progress=progress,
+                                  start_method=start_method, scheduler=scheduler,
+                                  scheduler_timeout=scheduler_timeout, batch_size=batch_size)
+        except Interrupted as stopped:
+            stopped.kept = record(stopped.ran, jobs or 0, f'interrupted by {stopped.name}')
+            stopped.total, stopped.folder = len(specs), str(out)
+            raise
     rows = tidy_table([folders[spec] for spec in specs],
                       factors=config.study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
