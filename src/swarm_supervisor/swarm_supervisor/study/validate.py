@@ -6,7 +6,8 @@ run the same episode twice: a population of 0 robots, a level listed twice (two 
 the same value are one episode), and a cell whose robots cannot be placed in its arena (the
 engine's own placement, :func:`~swarm_supervisor.engine.episode.place_swarm`, is tried on
 every episode: it costs milliseconds and is exactly the check an episode would fail).
-Empty lists are refused by the parameter schema already, when the file is read.
+Empty lists and a factor's repeated levels are refused by the parameter schema already,
+when the file is read.
 """
 
 from __future__ import annotations
@@ -47,8 +48,7 @@ def check_design(config: SwarmConfig) -> list[EpisodeSpec]:
                          'undefined without robots); remove it from study.populations')
     lists: Sequence[tuple[str, Iterable[Any]]] = [
         ('study.populations', study.populations), ('study.speeds', study.speeds),
-        ('study.seeds', study.seeds),
-        *((f'study.factors.{key}', values) for key, values in study.factors)]
+        ('study.seeds', study.seeds)]  # a factor's levels: the schema refuses repeats
     for key, values in lists:
         twice = _repeated(values)
         if twice:
