@@ -117,3 +117,20 @@ def test_a_folder_holding_a_run_is_no_study(tmp_path, capsys):
 def test_quick_design_is_checked_too():
     quick = dataclasses.replace(load_config(), study=study.quick_study(load_config().study))
     assert len(study.check_design(quick)) == 8
+
+
+def test_an_analysis_replaces_an_analysis_but_not_a_study_or_its_sources(tmp_path, capsys):
+    ran = tmp_path / 'ran'
+    one = design_file(tmp_path / 'one.yaml')
+    assert main(['study', '--config', str(one), '--out', str(ran), '--jobs', '1']) == 0
+    episodes = str(ran / study.EPISODES_DIR)
+    analysis = tmp_path / 'analysis'
+    for _ in range(2):  # an earlier analysis is analysed over
+        assert main(['study', '--from-episodes', episodes, '--out', str(analysis)]) == 0
+    before = {p: p.read_bytes() for p in ran.rglob('*') if p.is_file()}
+    capsys.readouterr()
+    assert main(['study', '--from-episodes', str(analysis), episodes, '--out', str(ran)]) == 2
+    assert 'holds a study run there' in capsys.readouterr().err
+    assert main(['study', '--from-episodes', episodes, '--out', str(ran), '--overwrite']) == 2
+    assert 'inside --out' in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in ran.rglob('*') if p.is_file()} == before

@@ -136,6 +136,7 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
               f'incomplete; --allow-incomplete analyses them anyway:\n{listing}',
               file=sys.stderr)
         return 1
+    study.claim_analysis_folder(args.out, args.from_episodes, overwrite=args.overwrite)
     report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
                      incomplete=incomplete, claims_files=args.claims)
     flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''

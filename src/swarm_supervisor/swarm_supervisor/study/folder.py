@@ -5,12 +5,15 @@ holding a study of another design (its ``parameters.yaml`` differs in a key that
 episodes) or a record of another kind (a run, an episode, a bag:
 :func:`swarm_supervisor.outputs.guard.record_in`) is refused, naming the folder, the first
 differing key and ``--overwrite``, which replaces the folder whole
-(:func:`swarm_supervisor.outputs.guard.claim_output`).
+(:func:`swarm_supervisor.outputs.guard.claim_output`). An analysis of existing episodes
+(``--from-episodes``, :func:`claim_analysis_folder`) may replace an earlier analysis, whose
+every file it writes again, but not a study's folder or another record.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -82,3 +85,32 @@ def claim_study_folder(config: SwarmConfig, out: Path, *, overwrite: bool = Fals
         key, before, after = differs
         raise StudyError(f'--out {out} holds a study of another design: {key} = {before!r} '
                          f'there, {after!r} here; {FIX}')
+
+
+def claim_analysis_folder(out: Path, sources: Sequence[Path], *, overwrite: bool = False) -> None:
+    """Make ``out`` ready for an analysis of the episodes under ``sources``: a new folder or
+    an earlier analysis (all_metrics.csv and report.md, nothing run there) is fine; with
+    ``overwrite``, any record there is deleted whole first, unless a source lies inside it.
+
+    Raises:
+        StudyError: ``out`` holds a study that ran its episodes there, or a run, episode or
+            bag, and ``overwrite`` is false; or ``overwrite`` would delete a source.
+    """
+    if out.exists() and not out.is_dir():
+        raise StudyError(f'--out {out} is a file, not a folder: choose another --out')
+    if overwrite:
+        inside = [source for source in sources
+                  if Path(source).resolve().is_relative_to(out.resolve())]
+        if inside:
+            raise StudyError(f'--overwrite would delete {inside[0]}, which --from-episodes '
+                             f'analyses: it is inside --out {out}; choose another --out')
+        claim_output(out, overwrite=True)
+        return
+    found = record_in(out)
+    if found is None:
+        return
+    what, marker = found
+    if is_study(out) or what != 'a study':
+        held = 'a study run there' if is_study(out) else f'{what} ({marker})'
+        raise StudyError(f'--out {out} holds {held}, which an analysis of other episodes '
+                         f'would overwrite: {FIX}')
