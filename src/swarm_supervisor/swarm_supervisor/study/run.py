@@ -106,8 +106,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     wall times) and ``all_metrics.csv``. The design and the folder are checked first
     (:func:`~swarm_supervisor.study.validate.check_design`,
     :func:`~swarm_supervisor.study.folder.claim_study_folder`): a refusal writes nothing.
-    Ctrl-C finishes the running batches and stops (a second one, or SIGTERM, stops at once:
-    :mod:`~swarm_supervisor.study.interrupt`); finished episodes stay on disk and the next
+    Ctrl-C or SIGTERM stops at once, cutting the running batches
+    (:mod:`~swarm_supervisor.study.interrupt`); finished episodes stay on disk and the next
     call resumes from them.
 
     Args:
@@ -169,7 +169,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
                                   start_method=start_method, scheduler=scheduler,
                                   scheduler_timeout=scheduler_timeout, batch_size=batch_size)
         except Interrupted as stopped:
-            stopped.kept = record(stopped.ran, jobs or 0, f'interrupted by {stopped.name}')
+            workers = 0 if scheduler else max(1, min(jobs or available_cpus(), len(pending)))
+            stopped.kept = record(stopped.ran, workers, f'interrupted by {stopped.name}')
             stopped.total, stopped.folder = len(specs), str(out)
             raise
     rows = tidy_table([folders[spec] for spec in specs],
