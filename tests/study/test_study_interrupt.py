@@ -58,6 +58,7 @@ def stop_once_written(process: subprocess.Popen, out: Path, count: int,
     os.killpg(process.pid, signum)
 
 
+@pytest.mark.slow
 def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(config, tmp_path):
     out = tmp_path / 'stopped'
     process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
