@@ -109,7 +109,7 @@ def test_a_folder_holding_a_run_is_no_study(tmp_path, capsys):
     one = design_file(tmp_path / 'one.yaml')
     assert main(['study', '--config', str(one), '--out', str(out)]) == 2
     error = capsys.readouterr().err
-    assert 'holds a node-system run' in error and 'not a study' in error
+    assert 'holds a node-system run' in error and 'not a study run there' in error
     assert '--overwrite' in error
     assert sorted(p.name for p in out.iterdir()) == ['run.json']
 
@@ -134,3 +134,6 @@ def test_an_analysis_replaces_an_analysis_but_not_a_study_or_its_sources(tmp_pat
     assert main(['study', '--from-episodes', episodes, '--out', str(ran), '--overwrite']) == 2
     assert 'inside --out' in capsys.readouterr().err
     assert {p: p.read_bytes() for p in ran.rglob('*') if p.is_file()} == before
+    # And a study is not run into an analysis.
+    assert main(['study', '--config', str(one), '--out', str(analysis)]) == 2
+    assert 'holds an analysis of other episodes' in capsys.readouterr().err

@@ -70,7 +70,10 @@ def claim_study_folder(config: SwarmConfig, out: Path, *, overwrite: bool = Fals
         found = record_in(out)
         if found is not None:
             what, marker = found
-            raise StudyError(f'--out {out} holds {what} ({marker}), not a study: {FIX}')
+            if what == 'a study':  # its table and report, but no episodes were run there
+                what = 'an analysis of other episodes (study --from-episodes)'
+            raise StudyError(f'--out {out} holds {what} ({marker}), not a study run there: '
+                             f'{FIX}')
         return
     saved = out / PARAMETERS_FILE
     if not saved.is_file():
