@@ -32,7 +32,7 @@ TABLE_COLUMNS = KEYS + COLUMNS
 def find_episodes(paths: Iterable[str | Path]) -> list[Path]:
     """Every complete episode folder (metrics.csv + episode.json) at or under ``paths``, but
     a study's episodes still being written (``.<name>.partial``, :mod:`.tasks`)."""
-    found = set()
+    found: set[Path] = set()
     for path in map(Path, paths):
         if not path.exists():
             raise StudyError(f'{path} does not exist')

@@ -65,10 +65,10 @@ def check_design(config: SwarmConfig) -> list[EpisodeSpec]:
     for spec in specs:
         episode = episode_config(config, spec)
         # Placement depends on these only; one try per distinct combination and seed.
-        key = (spec.population, spec.seed, repr(episode.world), episode.mona.body_radius)
-        if key in placed:
+        placement = (spec.population, spec.seed, repr(episode.world), episode.mona.body_radius)
+        if placement in placed:
             continue
-        placed.add(key)
+        placed.add(placement)
         try:
             place_swarm(episode, spec.seed)
         except PlacementError as error:
