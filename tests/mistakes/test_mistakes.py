@@ -7,14 +7,14 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import cases_launch
 import pytest
 
+import cases_launch
 import cases_run
+import cases_study
 from mistake import Mistake, folder_digest, run_mistake
 
-TABLE: list[Mistake] = [*cases_run.CASES,
-                        *cases_launch.CASES]
+TABLE: list[Mistake] = [*cases_run.CASES, *cases_launch.CASES, *cases_study.CASES]
 
 
 @pytest.mark.parametrize('mistake', TABLE, ids=[m.name for m in TABLE])

@@ -25,15 +25,16 @@ import pandas as pd
 from swarm_metrics.completeness import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
-from swarm_supervisor.analysis import anova as anova_tables
 from swarm_supervisor.analysis import beyond_figures, checks, figures, profile, sensitivity
 from swarm_supervisor.analysis import claims as claim_checks
-from swarm_supervisor.analysis.reading import (
-    ANOVA_FILES,
-    cleaning_summary,
-    reading,
-    variant_cells,
-    variant_table,
+from swarm_supervisor.analysis.reading import cleaning_summary, reading, variant_table
+from swarm_supervisor.analysis.report_tables import (
+    fit_anovas,
+    markdown_table,
+    tables_section,
+    timing_section,
+    unfitted_reading,
+    write_anovas,
 )
 
 REPORT_FILE = 'report.md'
@@ -84,10 +85,8 @@ def analyse(out_dir: str | Path, folders: Sequence[Path], *,
         incomplete = {folder: findings for folder, record in zip(folders, records)
                       if (findings := study.recorded_findings(record))}
     drawn = make_figures(out, table, folders, records)
-    tables = {}
-    for response, name in ANOVA_FILES.items():
-        tables[response] = anova_tables.anova(table, response)
-        anova_tables.write_anova(tables[response], out / name)
+    tables = fit_anovas(table)  # or, per response, why it cannot be fitted
+    write_anovas(out, tables)
     variants = variant_table(table)
     claims = claim_checks.all_claims(claims_files)
     compared = checks.evaluate_levels(table, claims)
@@ -198,25 +197,6 @@ def compared_section(compared: Sequence[tuple[dict[str, Any],
     return lines
 
 
-def markdown_table(frame: pd.DataFrame, formats: dict[str, str] | None = None) -> str:
-    """A DataFrame as a GitHub markdown table (NaN shown as '-'; strings as they are)."""
-    formats = formats or {}
-
-    def cell(column: str, value: Any) -> str:
-        if isinstance(value, float) and np.isnan(value):
-            return '-'
-        if isinstance(value, str):
-            return value
-        spec = formats.get(column)
-        return format(value, spec) if spec else str(value)
-
-    lines = ['| ' + ' | '.join(frame.columns) + ' |',
-             '|' + '---|' * len(frame.columns)]
-    for row in frame.itertuples(index=False):
-        lines.append('| ' + ' | '.join(cell(c, v) for c, v in zip(frame.columns, row)) + ' |')
-    return '\n'.join(lines)
-
-
 def software() -> dict[str, str]:
     """Versions of this software, Python and the libraries that shape the results."""
     versions = {'mona_swarm': __version__, 'python': platform.python_version()}
@@ -248,39 +228,9 @@ def differing_parameters(records: Sequence[dict[str, Any]]) -> list[str]:
     return sorted(name for name, seen in values.items() if len(seen) > 1)
 
 
-def _timing(records: Sequence[dict[str, Any]], folders: Sequence[Path],
-            out: Path) -> list[str]:
-    lines = []
-    frame = pd.DataFrame([{**study.episode_key(folder),
-                           'wall': record.get('wall_time_s', np.nan),
-                           'rtf': record.get('real_time_factor', np.nan)}
-                          for folder, record in zip(folders, records)])
-    if frame['wall'].notna().any():
-        cells = frame.groupby(['population', 'speed']).agg(
-            episodes=('wall', 'size'), median_wall_s=('wall', 'median'),
-            max_wall_s=('wall', 'max'), real_time_factor=('rtf', 'median')).reset_index()
-        cells['speed'] = cells['speed'].map(figures.speed_label)
-        lines += ['Wall time of one episode (the simulation alone, from each episode.json):',
-                  '', markdown_table(cells, {'median_wall_s': '.1f', 'max_wall_s': '.1f',
-                                             'real_time_factor': '.0f'}), '',
-                  f'Sum over the {frame["wall"].notna().sum()} episodes: '
-                  f'{frame["wall"].sum():.0f} s of wall time (one core each).']
-    invocations = study.read_invocations(out)
-    if invocations:
-        lines += ['', 'Study runs into this folder (total wall time; the CPU time the episodes '
-                  'used, which does not grow when other programs share the machine):', '']
-        for entry in invocations:
-            cpu = entry.get('cpu_time_s')
-            lines.append(f'- {entry["started"]}: ran {entry["ran"]}, kept {entry["kept"]} of '
-                         f'{entry["episodes"]} episodes on {entry["jobs"]} worker(s) in '
-                         f'{entry["wall_time_s"]:.1f} s'
-                         + (f'; episodes used {cpu:.0f} s of CPU' if cpu else ''))
-    return lines or ['No timing recorded in these episodes.']
-
-
 def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
            records: Sequence[dict[str, Any]], drawn: Sequence[Figure],
-           tables: dict[str, pd.DataFrame], *, sources: Sequence[str] = (),
+           tables: dict[str, pd.DataFrame | str], *, sources: Sequence[str] = (),
            parameters_file: str | None = None,
            incomplete: Mapping[Path, Sequence[Finding]] | None = None,
            compared: Sequence[tuple[dict[str, Any], Sequence[claim_checks.ClaimResult]]] = (),
@@ -331,7 +281,9 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
                  f'({len(table)} rows)')
     lines += ['', '## What the results show', '',
               '*Computed from the table above; medians over seeds.*', '']
-    lines += [f'- {line}' for line in reading(table, tables)]
+    fitted = {name: frame for name, frame in tables.items() if isinstance(frame, pd.DataFrame)}
+    lines += [f'- {line}' for line in (reading(table, fitted) if len(fitted) == len(tables)
+                                       else unfitted_reading(table, tables))]
     lines += [''] + compared_section(compared, [label for label, _ in figures.variants(table)])
     if matrix is not None:
         lines += [f'Which verdicts change with which factor level, claim by claim: '
@@ -346,30 +298,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
         if figure.note:
             lines.append(f'*Note: {figure.note}.*')
             lines.append('')
-    extra = study.design_factors(table)
-    lines += ['## Tables', '',
-              'ANOVA with time, population, speed'
-              + ''.join(f', {name}' for name in extra) + ' as categorical factors (main effects, '
-              'type-II sums of squares, statsmodels `ols` + `anova_lm`). Time enters as '
-              f'{anova_tables.DEFAULT_LEVELS} levels: each episode contributes its value at '
-              't = ' + ', '.join(f'{t:g}' for t in anova_tables.time_levels(table)) +
-              ' s. Successive samples of one episode are not independent, so p-values are '
-              "optimistic; eta^2 is the factor's share of the total sum of squares.", '']
-    formats = {'sum_sq': '.4g', 'F': '.4g', 'p': '.3g', 'eta_sq': '.3f', 'levels': '.0f'}
-    for response, name in ANOVA_FILES.items():
-        label = 'Table 2: mean cue' if response == 'mean_cue' else 'Table 3: coherency'
-        shown = tables[response].astype({'p': object})
-        shown.loc[shown['p'] == 0, 'p'] = '< 1e-300'
-        lines += [f'### {label} ([`{name}`]({name}))', '',
-                  markdown_table(shown, formats), '']
-    if variants is not None:
-        lines += ['### How time and samples enter: F per ANOVA variant', '',
-                  'The paper does not say how time and the samples entered its ANOVA. F of each '
-                  'factor under each variant (`swarm_supervisor.analysis.anova`, `variant=`); '
-                  'the tables '
-                  'above are `levels`. ' + '; '.join(f'`{name}`: {text}' for name, text in
-                                                     anova_tables.VARIANT_TEXT.items()) + '.',
-                  '', markdown_table(variant_cells(variants)), '']
+    lines += tables_section(table, tables, variants)
     summary = cleaning_summary(table)
     summary['speed'] = summary['speed'].map(figures.speed_label)
     lines += ['### Cleaning by cell', '',
@@ -377,7 +306,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
               '(- when most seeds never got there) and of the fraction left at the end.', '',
               markdown_table(summary, {'t_half_s': '.0f', 'final_fraction': '.3f',
                                        'end_s': '.0f'}), '']
-    lines += ['## Timing', ''] + _timing(records, folders, out) + ['']
+    lines += ['## Timing', ''] + timing_section(records, folders, out) + ['']
     lines += ['## Software', '']
     lines += [f'- {name}: {version}' for name, version in software().items()]
     return '\n'.join(lines) + '\n'

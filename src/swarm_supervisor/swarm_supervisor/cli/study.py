@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import signal
 import sys
 import time
 from pathlib import Path
@@ -11,7 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from swarm_metrics.completeness import describe
-from swarm_supervisor import study
+from swarm_supervisor import exits, study
 from swarm_supervisor.analysis.claims import all_claims
 from swarm_supervisor.analysis.report import analyse
 from swarm_supervisor.cli.arguments import bounded
@@ -26,9 +27,17 @@ def register(subparsers) -> None:
                     '(resuming a partly finished --out), then write all_metrics.csv, figures '
                     '3-6, the ANOVA tables and report.md into --out. With --from-episodes, '
                     'run nothing and analyse the episode folders found there instead (e.g. '
-                    'from `mona-swarm analyze` on ROS bags).')
+                    'from `mona-swarm analyze` on ROS bags). Ctrl-C or SIGTERM stops at once: '
+                    'finished episodes are kept, the running batches are cut, and the same '
+                    'command resumes. See docs/study.md.',
+        epilog=exits.HELP + '.')
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
-                        help='output folder (created; an existing study in it is resumed)')
+                        help='output folder (created; a study of the same design in it is '
+                             'resumed; one of another design, or another record, is refused '
+                             'unless --overwrite)')
+    parser.add_argument('--overwrite', action='store_true',
+                        help='delete whatever record --out holds (a study, a run, a bag) '
+                             'and start over')
     parser.add_argument('--config', type=Path, metavar='YAML',
                         help='ROS 2 parameter file whose study section is the design '
                              '(default: ros_ws/config/mona_swarm.yaml)')
@@ -50,7 +59,7 @@ def register(subparsers) -> None:
     parser.add_argument('--scheduler', metavar='ADDRESS',
                         help='run the episodes on the workers of this Dask distributed '
                              'scheduler (e.g. tcp://10.0.0.1:8786) instead of local processes; '
-                             'see docs/running.md')
+                             'see "The study on a cluster" in docs/study.md')
     parser.add_argument('--scheduler-timeout', type=bounded(float, 0.1), default=30.0,
                         metavar='SECONDS',
                         help='how long to wait for the scheduler to answer (default: 30)')
@@ -71,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     """Run (or collect) the episodes, then write the figures, tables and report.
 
     Returns:
-        0; 1 when --from-episodes finds an incomplete episode (without --allow-incomplete).
+        0; 1 when --from-episodes finds an incomplete episode (without --allow-incomplete);
+        130 / 143 when SIGINT / SIGTERM stopped the episodes (the kept ones are said).
     """
     started = time.perf_counter()
     all_claims(args.claims)  # a bad claims file fails now, not after the episodes
@@ -86,10 +96,16 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.jobs:
         raise study.StudyError('--jobs and --scheduler exclude each other (a cluster has as '
                                'many jobs as its workers run)')
-    rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
-                           scheduler_timeout=args.scheduler_timeout, bag=args.bag,
-                           videos=args.videos,
-                           batch_size=args.batch_size or study.DEFAULT_BATCH_SIZE)
+    try:
+        rows = study.run_study(config, args.out, jobs=args.jobs, scheduler=args.scheduler,
+                               scheduler_timeout=args.scheduler_timeout, bag=args.bag,
+                               videos=args.videos, overwrite=args.overwrite,
+                               batch_size=args.batch_size or study.DEFAULT_BATCH_SIZE)
+    except study.Interrupted as stopped:
+        for signum in (signal.SIGINT, signal.SIGTERM):  # only the message is left to do
+            signal.signal(signum, signal.SIG_IGN)
+        print(f'mona-swarm study: {stopped.message()}', file=sys.stderr)
+        return stopped.status
     folders = [args.out / study.EPISODES_DIR / spec.name for spec in study.design(config)]
     report = analyse(args.out, folders, table=pd.DataFrame(rows),
                      parameters_file=study.PARAMETERS_FILE, claims_files=args.claims)
@@ -120,6 +136,7 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
               f'incomplete; --allow-incomplete analyses them anyway:\n{listing}',
               file=sys.stderr)
         return 1
+    study.claim_analysis_folder(args.out, args.from_episodes, overwrite=args.overwrite)
     report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
                      incomplete=incomplete, claims_files=args.claims)
     flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''

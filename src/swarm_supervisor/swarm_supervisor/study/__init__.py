@@ -2,7 +2,9 @@
 cluster, resumable, tabulated as ``all_metrics.csv``.
 
 ``specs`` (the episodes of a design), ``tasks`` (what a worker runs), ``local`` and
-``cluster`` (where), ``run`` (:func:`run_study`), ``table`` (episode folders as one table).
+``cluster`` (where), ``validate`` and ``folder`` (the refusals before anything runs),
+``interrupt`` (stopping without losing an episode), ``run`` (:func:`run_study`), ``table``
+(episode folders as one table).
 """
 
 from swarm_supervisor.exports import lazy_exports
@@ -11,6 +13,10 @@ _WHERE = {
     **dict.fromkeys(('EpisodeSpec', 'design', 'episode_config', 'factor_cells',
                      'parameter_value', 'quick_study', 'snapshot_times'), 'specs'),
     **dict.fromkeys(('EpisodeFailed', 'StudyError'), 'errors'),
+    'check_design': 'validate',
+    **dict.fromkeys(('Interrupted', 'StopRequest'), 'interrupt'),
+    **dict.fromkeys(('claim_analysis_folder', 'claim_study_folder', 'first_difference',
+                     'is_study'), 'folder'),
     **dict.fromkeys(('BAG_DIR', 'DEFAULT_BATCH_SIZE', 'EpisodeTask', 'make_batches',
                      'run_and_write'), 'tasks'),
     **dict.fromkeys(('available_cpus', 'run_local'), 'local'),

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
+import shutil
 import sys
 import tempfile
 from collections.abc import Sequence
@@ -24,8 +24,14 @@ from tqdm import tqdm
 
 from swarm_supervisor import outputs
 from swarm_supervisor.study.errors import StudyError
+from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.progress import show_done
-from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
+from swarm_supervisor.study.tasks import (
+    EpisodeTask,
+    move_into_place,
+    partial_folder,
+    run_and_write,
+)
 
 #: Seconds to wait for the scheduler to answer before giving up (default).
 CONNECT_TIMEOUT = 30.0
@@ -56,17 +62,18 @@ def episode_files(tasks: Sequence[EpisodeTask]) -> list[tuple[str, float, float,
 
 
 def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
-    """Client side: write an episode's files into its folder, episode.json last (atomically),
-    so a folder without it is half-written and is run again, as in a local run."""
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    """Client side: write an episode's files under a temporary name, episode.json last, and
+    rename that into place (:func:`~swarm_supervisor.study.tasks.move_into_place`), so the
+    folder is whole or absent whenever the client stops, as in a local run."""
+    partial = partial_folder(folder)
+    shutil.rmtree(partial, ignore_errors=True)
+    partial.mkdir(parents=True)
     for name, data in files.items():
         if name != outputs.EPISODE_FILE:
-            (out / name).parent.mkdir(parents=True, exist_ok=True)
-            (out / name).write_bytes(data)
-    temporary = out / (outputs.EPISODE_FILE + '.tmp')
-    temporary.write_bytes(files[outputs.EPISODE_FILE])
-    os.replace(temporary, out / outputs.EPISODE_FILE)
+            (partial / name).parent.mkdir(parents=True, exist_ok=True)
+            (partial / name).write_bytes(data)
+    (partial / outputs.EPISODE_FILE).write_bytes(files[outputs.EPISODE_FILE])
+    move_into_place(partial, folder)
 
 
 def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
@@ -74,14 +81,15 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
                    ) -> dict[str, tuple[float, float]]:
     """Run the batches of tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
 
-    Episodes are written as they finish; Ctrl-C or a failed episode cancels the rest (the
-    finished ones stay, and the next call resumes from them).
+    Episodes are written as they finish; Ctrl-C, SIGTERM or a failed episode cancels the
+    rest (the finished ones stay, and the next call resumes from them).
 
     Returns:
         folder -> (wall seconds, CPU seconds) of each episode, on its worker.
 
     Raises:
         ClusterError: the scheduler does not answer within ``timeout`` s.
+        Interrupted: stopped by a signal; its ``ran`` holds the episodes written before.
     """
     try:
         from dask.distributed import Client, as_completed
@@ -112,6 +120,9 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
                     write_files(folder, files)
                     ran[folder] = wall, cpu
                     show_done(bar, progress, len(ran), len(pending), folder, wall)
+    except Interrupted as stopped:
+        stopped.ran = dict(ran)
+        raise
     finally:
         client.cancel([f for f in futures if not f.done()])
         client.close()

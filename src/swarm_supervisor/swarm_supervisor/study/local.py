@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from tqdm import tqdm
 
 from swarm_supervisor.study import progress
+from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
 
 
@@ -27,12 +28,15 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
     pool of ``jobs`` processes, with progress bars (``shown``: True, False, or None for only
     on a terminal).
 
-    Ctrl-C or a failed episode terminates every worker at once; the episodes written by then
-    stay on disk.
+    Ctrl-C, SIGTERM (:mod:`~swarm_supervisor.study.interrupt`) or a failed episode terminates
+    every worker at once; the episodes written by then stay on disk.
 
     Returns:
         folder -> (wall seconds, CPU seconds) of each episode (its share of its batch's),
         writing included.
+
+    Raises:
+        Interrupted: stopped by a signal; its ``ran`` holds the episodes finished before.
     """
     pending = [task for batch in batches for task in batch]
     if not pending:
@@ -59,11 +63,15 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
                 else:
                     for folder, wall, cpu in done:
                         ran[folder] = wall, cpu
-                        progress.show_done(episodes, shown, len(ran), len(pending), folder,
-                                           wall)
+                        progress.show_done(episodes, shown, len(ran), len(pending),
+                                           folder, wall)
                 seconds.update(min(counter.value, total) - seconds.n)
         pool.close()
-    except BaseException:  # Ctrl-C or a failed episode: stop every worker now
+    except Interrupted as stopped:  # Ctrl-C or SIGTERM (run_study's handlers): stop now
+        pool.terminate()
+        stopped.ran = dict(ran)
+        raise
+    except BaseException:  # a failed episode, or Ctrl-C without them: stop every worker now
         pool.terminate()
         raise
     finally:

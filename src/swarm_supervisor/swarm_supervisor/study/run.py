@@ -23,15 +23,21 @@ from tqdm import tqdm
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError
+from swarm_supervisor.study.folder import (
+    EPISODES_DIR,
+    FIX,
+    PARAMETERS_FILE,
+    TIMING_FILE,
+    claim_study_folder,
+)
+from swarm_supervisor.study.interrupt import Interrupted, StopRequest
 from swarm_supervisor.study.local import available_cpus, run_local
 from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
 from swarm_supervisor.study.tasks import BAG_DIR, DEFAULT_BATCH_SIZE, EpisodeTask, make_batches
+from swarm_supervisor.study.validate import check_design
 
-EPISODES_DIR = 'episodes'
 VIDEOS_DIR = 'videos'  #: one video per design cell (``study --videos``)
-PARAMETERS_FILE = 'parameters.yaml'
-TIMING_FILE = 'study.json'
 
 
 def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
@@ -54,8 +60,8 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
             if stored.get(section, {}).get(key, defaults[section][key]) != value:
                 raise StudyError(
                     f'{folder} was run with {section}.{key} = '
-                    f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}; '
-                    'use another --out folder or delete that episode')
+                    f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}: '
+                    f'--out holds a study of another design; {FIX}')
 
 
 def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False
@@ -64,12 +70,12 @@ def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False
     those not yet complete there (``bag``: also those without their bag).
 
     Episodes already complete are kept, after checking they were run with the same parameters.
+    Nothing is written (the workers create the folders).
 
     Raises:
         StudyError: a finished episode in ``out_dir`` was run with other parameters.
     """
     out = Path(out_dir)
-    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
     times = snapshot_times(config.study)
     specs = design(config)
     folders = {spec: out / EPISODES_DIR / spec.name for spec in specs}
@@ -88,16 +94,21 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
               progress: bool | None = None, start_method: str = 'spawn',
               scheduler: str | None = None, scheduler_timeout: float = 30.0,
               bag: bool = False, videos: bool = False,
-              batch_size: int = DEFAULT_BATCH_SIZE) -> list[dict[str, float]]:
+              batch_size: int = DEFAULT_BATCH_SIZE,
+              overwrite: bool = False) -> list[dict[str, float]]:
     """Run every missing episode of ``config.study`` into ``out_dir`` and tabulate them all.
 
     Episodes already complete in ``out_dir/episodes`` are kept (after checking they were run
     with the same parameters); the others run in batches of at most ``batch_size`` episodes
     stepped together (the batched engine), costliest first, over ``jobs`` worker
     processes; each episode is written as soon as it is done.
-    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, wall times) and
-    ``all_metrics.csv``. Ctrl-C terminates the workers; finished episodes stay on disk and the
-    next call resumes from them.
+    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, how it ended,
+    wall times) and ``all_metrics.csv``. The design and the folder are checked first
+    (:func:`~swarm_supervisor.study.validate.check_design`,
+    :func:`~swarm_supervisor.study.folder.claim_study_folder`): a refusal writes nothing.
+    Ctrl-C or SIGTERM stops at once, cutting the running batches
+    (:mod:`~swarm_supervisor.study.interrupt`); finished episodes stay on disk and the next
+    call resumes from them.
 
     Args:
         jobs: worker processes (default: the CPUs this process may use).
@@ -112,37 +123,61 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
             into ``out_dir/videos/`` (implies ``bag``).
         batch_size: episodes stepped together in one worker (1: one at a time); the
             outputs are the same for any size.
+        overwrite: delete whatever record ``out_dir`` holds first, and start over.
 
     Returns:
         The tidy table as flat rows (one dict per episode and sample), columns
         :data:`~swarm_supervisor.study.table.TABLE_COLUMNS`.
 
     Raises:
-        StudyError: a finished episode in ``out_dir`` was run with other parameters.
+        StudyError: a cell of the design cannot run, or ``out_dir`` holds a study of another
+            design or a record of another kind (and not ``overwrite``).
+        Interrupted: stopped by a signal; its ``kept`` episodes of ``total`` are complete.
     """
     started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
     out = Path(out_dir)
+    check_design(config)  # before a worker starts or a byte is written
+    if overwrite:
+        claim_study_folder(config, out, overwrite=True)
     specs, folders, pending = plan(config, out, bag=bag or videos)
-    write_ros_yaml(config, out / PARAMETERS_FILE)  # after the check: a refused run changes nothing
-    jobs, ran = run_tasks(pending, jobs=jobs, progress=progress, start_method=start_method,
-                          scheduler=scheduler, scheduler_timeout=scheduler_timeout,
-                          batch_size=batch_size)
+    claim_study_folder(config, out)
+    (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
+    write_ros_yaml(config, out / PARAMETERS_FILE)  # after the checks: a refusal changes nothing
+    entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs)}
+
+    def record(ran: dict[str, tuple[float, float]], jobs: int, outcome: str,
+               rendered: Sequence[Path] = ()) -> int:
+        complete = sum(outputs.episode_complete(folder) for folder in folders.values())
+        _record_invocation(out / TIMING_FILE, {
+            **entry, 'ended': time.strftime('%Y-%m-%dT%H:%M:%S'), 'outcome': outcome,
+            'ran': len(ran), 'kept': len(specs) - len(pending), 'complete': complete,
+            'jobs': jobs, 'batch_size': batch_size, 'scheduler': scheduler,
+            'videos': [str(path.relative_to(out)) for path in rendered],
+            'wall_time_s': round(time.perf_counter() - started, 3),
+            'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
+            'episode_wall_time_s': {Path(folder).name: round(wall, 3)
+                                    for folder, (wall, _) in sorted(ran.items())},
+            'episode_cpu_time_s': {Path(folder).name: round(cpu, 3)
+                                   for folder, (_, cpu) in sorted(ran.items())},
+        })
+        return complete
+
+    # The handlers stay while the stop is recorded: a second Ctrl-C cannot cut that short.
+    with StopRequest():
+        try:
+            jobs, ran = run_tasks(pending, jobs=jobs, progress=progress,
+                                  start_method=start_method, scheduler=scheduler,
+                                  scheduler_timeout=scheduler_timeout, batch_size=batch_size)
+        except Interrupted as stopped:
+            workers = 0 if scheduler else max(1, min(jobs or available_cpus(), len(pending)))
+            stopped.kept = record(stopped.ran, workers, f'interrupted by {stopped.name}')
+            stopped.total, stopped.folder = len(specs), str(out)
+            raise
     rows = tidy_table([folders[spec] for spec in specs],
                       factors=config.study.factor_names).to_dict('records')
     write_table(rows, out / TABLE_FILE)
     rendered = render_videos(out, specs, progress) if videos else []
-    _record_invocation(out / TIMING_FILE, {
-        'started': stamp,
-        'episodes': len(specs), 'ran': len(ran), 'kept': len(specs) - len(ran), 'jobs': jobs,
-        'batch_size': batch_size,
-        'scheduler': scheduler, 'videos': [str(path.relative_to(out)) for path in rendered],
-        'wall_time_s': round(time.perf_counter() - started, 3),
-        'cpu_time_s': round(sum(cpu for _, cpu in ran.values()), 3),
-        'episode_wall_time_s': {Path(folder).name: round(wall, 3)
-                                for folder, (wall, _) in sorted(ran.items())},
-        'episode_cpu_time_s': {Path(folder).name: round(cpu, 3)
-                               for folder, (_, cpu) in sorted(ran.items())},
-    })
+    record(ran, jobs, 'finished', rendered)
     return rows
 
 

@@ -30,14 +30,16 @@ TABLE_COLUMNS = KEYS + COLUMNS
 
 
 def find_episodes(paths: Iterable[str | Path]) -> list[Path]:
-    """Every complete episode folder (metrics.csv + episode.json) at or under ``paths``."""
-    found = set()
+    """Every complete episode folder (metrics.csv + episode.json) at or under ``paths``, but
+    a study's episodes still being written (``.<name>.partial``, :mod:`.tasks`)."""
+    found: set[Path] = set()
     for path in map(Path, paths):
         if not path.exists():
             raise StudyError(f'{path} does not exist')
         candidates = [path] if (path / outputs.EPISODE_FILE).exists() else []
         candidates += [p.parent for p in path.rglob(outputs.EPISODE_FILE)]
-        found.update(p for p in candidates if outputs.episode_complete(p))
+        found.update(p for p in candidates if outputs.episode_complete(p)
+                     and not p.name.endswith('.partial'))
     return sorted(found)
 
 

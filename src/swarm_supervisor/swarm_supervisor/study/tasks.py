@@ -10,6 +10,7 @@ only small tuples come back.
 from __future__ import annotations
 
 import dataclasses
+import os
 import shutil
 import time
 import traceback
@@ -71,14 +72,17 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
             progress.report(t - reported[k])
             reported[k] = t
 
+    partials = [partial_folder(task.folder) for task in tasks]
     try:
+        for partial in partials:  # left by a worker that was stopped mid-episode
+            shutil.rmtree(partial, ignore_errors=True)
         recorders: list = [None] * len(tasks)
         if any(task.bag for task in tasks):
             from swarm_supervisor.outputs.bag import BagRecorder  # the bag's libraries, if asked
             for k, task in enumerate(tasks):
                 if task.bag:
-                    shutil.rmtree(Path(task.folder) / BAG_DIR, ignore_errors=True)  # half-written
-                    recorders[k] = BagRecorder(task.folder)
+                    partials[k].mkdir(parents=True, exist_ok=True)
+                    recorders[k] = BagRecorder(str(partials[k]))
 
         def finished(k: int, result) -> None:
             extra = None
@@ -86,7 +90,8 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
                 recorders[k].check(result)
                 extra = {'bag': BAG_DIR}
             progress.report(tasks[k].config.episode.duration - reported[k])
-            outputs.write_episode(result, tasks[k].folder, extra=extra)
+            outputs.write_episode(result, partials[k], extra=extra)
+            move_into_place(partials[k], tasks[k].folder)
 
         run_batch([task.config for task in tasks], snapshot_times=tasks[0].snapshot_times,
                   progress=sampled, observers=[[] if r is None else [r] for r in recorders],
@@ -96,6 +101,27 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
     share = len(tasks)
     return [(task.folder, (time.perf_counter() - started) / share,
              (time.process_time() - cpu) / share) for task in tasks]
+
+
+def partial_folder(folder: str | Path) -> Path:
+    """Where an episode is written before it is moved to ``folder``: a hidden sibling, on the
+    same filesystem, so the move is one rename."""
+    folder = Path(folder)
+    return folder.parent / f'.{folder.name}.partial'
+
+
+def move_into_place(partial: Path, folder: str | Path) -> None:
+    """Replace ``folder`` by the finished ``partial`` folder (one rename), so an episode
+    folder is whole or absent whenever the process stops, and never lacks episode.json.
+
+    An older ``folder`` (half-written by an earlier version, or complete but without the
+    bag now asked for) is deleted first: for that instant the episode is absent, and a
+    study stopped then simply runs it again.
+    """
+    target = Path(folder)
+    if target.exists():
+        shutil.rmtree(target)
+    os.replace(partial, target)
 
 
 def make_batches(pending: Sequence[EpisodeTask], batch_size: int,

@@ -1,0 +1,126 @@
+"""Stopping a study keeps every finished episode: Ctrl-C as a real signal to a real
+``mona-swarm study`` process, then the same command again, and the result byte-identical to
+a study that was never stopped (issue 20)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from swarm_supervisor import outputs, study
+from swarm_supervisor.config import load_config, write_ros_yaml
+
+#: 2 populations x 2 speeds x 3 seeds of 8 s; one worker and batches of 2: six batches.
+DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3], 'duration': 8.0,
+          'snapshot_times': [0.0, 8.0]}
+EPISODES = 12
+MESSAGE = (r'interrupted by SIGINT: (\d+) of 12 episodes kept in (\S+) \(the running batches '
+           r'were cut\); rerun the same command to resume')
+
+
+def command(config: Path, out: Path) -> list[str]:
+    """The study as a user types it (the module, so the test needs no PATH)."""
+    return [sys.executable, '-m', 'swarm_supervisor.cli', 'study', '--config', str(config),
+            '--out', str(out), '--jobs', '1', '--batch-size', '2']
+
+
+def written(out: Path) -> list[Path]:
+    """The episode folders that are in place (hidden .partial folders are not)."""
+    folder = out / study.EPISODES_DIR
+    return sorted(p for p in folder.iterdir() if not p.name.startswith('.')) \
+        if folder.is_dir() else []
+
+
+@pytest.fixture
+def config(tmp_path: Path) -> Path:
+    path = tmp_path / 'design.yaml'
+    write_ros_yaml(load_config().replace(study=DESIGN), path)
+    return path
+
+
+def stop_once_written(process: subprocess.Popen, out: Path, count: int,
+                      signum: int = signal.SIGINT) -> None:
+    """``signum`` to the process group (SIGINT: a terminal's Ctrl-C) once ``count`` episodes
+    are in place."""
+    deadline = time.monotonic() + 180
+    while len([p for p in written(out) if outputs.episode_complete(p)]) < count:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline, 'no episode finished'
+        time.sleep(0.05)
+    os.killpg(process.pid, signum)
+
+
+@pytest.mark.slow
+def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(config, tmp_path):
+    out = tmp_path / 'stopped'
+    process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        stop_once_written(process, out, 2)
+        _, err = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == 130, err
+    said = re.search(MESSAGE, err)
+    assert said, err
+    assert 'Traceback' not in err
+    kept = written(out)
+    assert said.group(2) == str(out)
+    assert int(said.group(1)) == len(kept) and 2 <= len(kept) < EPISODES
+    for folder in kept:  # every folder in place is whole; a cut one is a hidden .partial
+        assert outputs.episode_complete(folder), folder
+        assert (folder / outputs.SNAPSHOTS_FILE).is_file()
+    last = study.read_invocations(out)[-1]
+    assert last['outcome'] == 'interrupted by SIGINT'
+    # An episode written as the workers were stopped may not have reported back: ran <= kept.
+    assert last['complete'] == len(kept) and last['ran'] <= len(kept)
+    assert not (out / study.TABLE_FILE).exists()
+
+    resumed = subprocess.run(command(config, out), capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    runs = study.read_invocations(out)
+    assert runs[-1]['outcome'] == 'finished'
+    assert (runs[-1]['kept'], runs[-1]['ran']) == (len(kept), EPISODES - len(kept))
+
+    whole = tmp_path / 'whole'
+    once = subprocess.run(command(config, whole), capture_output=True, text=True, timeout=300)
+    assert once.returncode == 0, once.stderr
+    assert (out / study.TABLE_FILE).read_bytes() == (whole / study.TABLE_FILE).read_bytes()
+    assert [p.name for p in written(out)] == [p.name for p in written(whole)]
+    for folder in written(whole):
+        mine = out / study.EPISODES_DIR / folder.name
+        assert (mine / outputs.METRICS_FILE).read_bytes() == \
+            (folder / outputs.METRICS_FILE).read_bytes(), folder.name
+
+
+def test_sigterm_and_a_second_ctrl_c_stop_at_once_and_leave_no_torn_folder(config, tmp_path):
+    out = tmp_path / 'out'
+    process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        stop_once_written(process, out, 1, signal.SIGTERM)
+        time.sleep(0.3)  # pending together, Python would handle SIGINT (2) first
+        os.killpg(process.pid, signal.SIGINT)  # while it stops: changes nothing
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == 143, err
+    assert 'interrupted by SIGTERM' in err and 'episodes kept in' in err
+    assert 'Traceback' not in err
+    for folder in written(out):
+        assert outputs.episode_complete(folder), folder
+    record = json.loads((out / study.TIMING_FILE).read_text())['invocations'][-1]
+    assert record['outcome'] == 'interrupted by SIGTERM'
+    assert record['complete'] == len(written(out))
