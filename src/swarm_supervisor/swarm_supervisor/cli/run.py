@@ -16,6 +16,7 @@ from tqdm import tqdm
 from mona_controller.schema import ParameterError
 from swarm_supervisor.cli.arguments import bounded, speed_cm_s
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.episode import place_swarm
 from swarm_supervisor.engine.runner import (
     EpisodeObserver,
     EpisodeResult,
@@ -159,6 +160,7 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
             f'episode.population in {args.config or "the default configuration"}'
         raise ParameterError(f'{source} = {population}: an episode needs at least one robot '
                              '(allowed [1, 100000])')
+    place_swarm(configs[0], configs[0].episode.seed)  # PlacementError before --out is touched
     return configs
 
 
