@@ -68,11 +68,12 @@ def test_analyze_recovers_a_crashed_bag(tmp_path, capsys):
     assert cli.main(['analyze', str(bag)]) == 1
     err = capsys.readouterr().err
     assert 'was cut short' in err and 'fails the finished, samples' in err
-    assert not (tmp_path / 'episode_0' / 'episode.json').exists()
+    analysis = tmp_path / 'episode_0' / 'bag.analysis'  # beside the bag, never into its folder
+    assert not analysis.exists()
     assert cli.main(['analyze', str(bag), '--allow-incomplete']) == 0
     out = capsys.readouterr().out
     assert 'INCOMPLETE' in out and 'recovered copy' in out
-    record = json.loads((tmp_path / 'episode_0' / 'episode.json').read_text())
+    record = json.loads((analysis / 'episode.json').read_text())
     assert record['recovered'] and not record['complete'] and record['seed'] == 1
     assert 'finished' in [finding['check'] for finding in record['completeness']]
     assert written / 1e9 - CHUNK_PERIOD - 1.0 <= record['sim_time_covered'] <= written / 1e9

@@ -82,6 +82,7 @@ class ScanReport:
     messages: int = 0
     chunks: int = 0
     bad_chunks: list[str] = dataclasses.field(default_factory=list)
+    bad_chunk_offsets: list[int] = dataclasses.field(default_factory=list)  #: their bytes
     topics: Counter = dataclasses.field(default_factory=Counter)
     first_ns: int | None = None
     last_ns: int | None = None
@@ -129,12 +130,15 @@ class McapScan:
             self.report.size = os.fstat(handle.fileno()).st_size
             yield from self._scan(handle)
 
-    def _fail(self, message: str, *, truncated: bool = False) -> None:
+    def _fail(self, message: str, *, truncated: bool = False, damaged: bool = False) -> None:
         """Stop here: raise in strict mode, else remember why reading stopped."""
         text = f'{self.path}: {message}. Readable before that: {self.report.readable()}.'
         if truncated:
             text += (' The writer did not close the bag (killed?); `mona-swarm recover` '
                      'rewrites the readable part as a valid bag.')
+        elif damaged:
+            text += (' `mona-swarm recover` keeps every intact chunk in a new bag and reports '
+                     'what the damaged ones held.')
         if self.strict:
             raise (TruncatedBagError if truncated else BagError)(text)
         self.report.problem = text
@@ -228,8 +232,9 @@ class McapScan:
         except Exception as error:  # noqa: BLE001 - any failure to decode it is damage
             text = f'the chunk at byte {offset} is damaged ({error or type(error).__name__})'
             self.report.bad_chunks.append(text)
+            self.report.bad_chunk_offsets.append(offset)
             if self.strict:
-                self._fail(text)
+                self._fail(text, damaged=True)
             return None
 
     def _messages(self, records: list) -> list[RawMessage] | None:
