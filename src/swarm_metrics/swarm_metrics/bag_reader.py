@@ -121,6 +121,11 @@ class McapScan:
         self._statistics: Statistics | None = None
         self._counts: Counter = Counter()  # by channel id
 
+    @property
+    def intact_chunks(self) -> list[int]:
+        """The byte offsets of the chunks read intact so far."""
+        return list(self._chunk_offsets)
+
     def __iter__(self) -> Iterator[RawMessage]:
         try:
             handle = open(self.path, 'rb')

@@ -102,7 +102,10 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         'recover', help='salvage a bag whose writer was killed',
         description='Rewrite every intact message of a bag (e.g. one without its MCAP '
-                    'summary after a crash) as a valid bag, and report what was kept.')
+                    'summary after a crash) as a valid bag, and report what was kept and '
+                    'what was lost: the messages and log-time span of each damaged or '
+                    "cut-off chunk, from the bag's own indexes. Exit status 0 when no "
+                    'message of the file was lost, 1 when some were.')
     parser.add_argument('bag', type=Path, metavar='BAG')
     parser.add_argument('--out', type=Path, metavar='DIR',
                         help=f'the recovered bag (default: <BAG>{SUFFIX})')
@@ -217,13 +220,19 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
 # --- recover ------------------------------------------------------------------------------
 
 def recover(args: argparse.Namespace) -> int:
-    """Salvage a bag and report what was kept."""
+    """Salvage a bag and report what was kept and what was lost.
+
+    Returns:
+        0 when every message of the source file is in the recovered bag, 1 when some were
+        lost (a damaged or cut-off chunk, a message of an unknown type), 2 when nothing
+        could be recovered.
+    """
     try:
         report = recover_bag(args.bag, args.out)
     except BagError as error:
         return _bad_bag('recover', error)
     print(report.summary())
-    return 0
+    return INCOMPLETE if report.anything_lost else 0
 
 
 # --- replay -------------------------------------------------------------------------------
