@@ -121,6 +121,15 @@ class McapScan:
         self._statistics: Statistics | None = None
         self._counts: Counter = Counter()  # by channel id
 
+    def know(self, schemas: dict[int, str], channels: list[Channel]) -> None:
+        """Take schemas (id -> name) and channels from elsewhere (the summary of a damaged
+        bag), so a message whose channel was defined in a damaged chunk can still be read."""
+        self._schemas.update(schemas)
+        for item in channels:
+            self.topics.setdefault(item.id, Topic(
+                item.topic, self._schemas.get(item.schema_id, ''),
+                item.metadata.get('offered_qos_profiles', '')))
+
     @property
     def intact_chunks(self) -> list[int]:
         """The byte offsets of the chunks read intact so far."""

@@ -26,10 +26,11 @@ from pathlib import Path
 from typing import BinaryIO
 
 from mcap.data_stream import ReadDataStream
-from mcap.records import ChunkIndex, Footer, MessageIndex, Statistics
+from mcap.records import Channel, ChunkIndex, Footer, MessageIndex, Schema, Statistics
 
 MAGIC = b'\x89MCAP0\r\n'
-CHUNK, MESSAGE_INDEX, CHUNK_INDEX, STATISTICS, FOOTER = 0x06, 0x07, 0x08, 0x0B, 0x02
+SCHEMA, CHANNEL, CHUNK, MESSAGE_INDEX, CHUNK_INDEX = 0x03, 0x04, 0x06, 0x07, 0x08
+STATISTICS, FOOTER, DATA_END = 0x0B, 0x02, 0x0F
 FOOTER_BYTES = 9 + 20  # opcode, length, then summary start, summary offset start, CRC
 
 
@@ -60,6 +61,14 @@ class Index:
 
     chunks: dict[int, ChunkIndex]  #: by chunk start offset
     messages: int | None  #: the statistics' message count
+    schemas: dict[int, str] = dataclasses.field(default_factory=dict)  #: id -> type name
+    channels: list[Channel] = dataclasses.field(default_factory=list)
+
+
+def read_index(path: str | Path) -> Index:
+    """The summary index of the MCAP file ``path`` (empty if it has none)."""
+    with open(path, 'rb') as handle:
+        return summary_index(handle, handle.seek(0, 2))
 
 
 def lost_chunks(path: str | Path, *, intact: Iterable[int], damaged: Iterable[int],
@@ -82,10 +91,25 @@ def lost_chunks(path: str | Path, *, intact: Iterable[int], damaged: Iterable[in
                     for offset, entry in sorted(index.chunks.items())
                     if offset not in intact], index
         lost = [_unindexed(handle, size, offset, 'damaged') for offset in damaged]
-        if stopped_at is not None and stopped_at not in damaged:
-            if (record := _record_head(handle, size, stopped_at)) and record[0] == CHUNK:
-                lost.append(_unindexed(handle, size, stopped_at, 'cut off'))
+        if stopped_at is not None:
+            lost += [_unindexed(handle, size, offset, why)
+                     for offset, why in _chunks_from(handle, size, stopped_at)
+                     if offset not in damaged]
         return lost, index
+
+
+def _chunks_from(handle: BinaryIO, size: int, offset: int) -> list[tuple[int, str]]:
+    """The chunks from ``offset`` to the end of the data section, by their framing: each
+    whole one 'unread', one the end of the file cuts 'cut off'."""
+    found = []
+    while (head := _record_head(handle, size, offset)) is not None and head[0] != DATA_END:
+        whole = offset + 9 + head[1] <= size
+        if head[0] == CHUNK:
+            found.append((offset, 'unread' if whole else 'cut off'))
+        if not whole:
+            break
+        offset += 9 + head[1]
+    return found
 
 
 def summary_index(handle: BinaryIO, size: int) -> Index:
@@ -105,6 +129,8 @@ def summary_index(handle: BinaryIO, size: int) -> Index:
     if not 0 < footer.summary_start < end:
         return empty
     chunks: dict[int, ChunkIndex] = {}
+    schemas: dict[int, str] = {}
+    channels: list[Channel] = []
     messages = None
     offset = footer.summary_start
     while offset < end:
@@ -118,10 +144,15 @@ def summary_index(handle: BinaryIO, size: int) -> Index:
                 chunks[entry.chunk_start_offset] = entry
             elif opcode == STATISTICS:
                 messages = Statistics.read(ReadDataStream(BytesIO(body))).message_count
+            elif opcode == SCHEMA:
+                schema = Schema.read(ReadDataStream(BytesIO(body)))
+                schemas[schema.id] = schema.name
+            elif opcode == CHANNEL:
+                channels.append(Channel.read(ReadDataStream(BytesIO(body))))
         except Exception:  # noqa: BLE001
             return empty
         offset += 9 + len(body)
-    return Index(chunks, messages)
+    return Index(chunks, messages, schemas, channels)
 
 
 def _indexed(handle: BinaryIO, size: int, entry: ChunkIndex, why: str) -> LostChunk:

@@ -37,7 +37,7 @@ from swarm_metrics.bag_reader import (
     read_custom_data,
 )
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE, EpisodeBagWriter
-from swarm_metrics.losses import LostChunk, lost_chunks
+from swarm_metrics.losses import LostChunk, lost_chunks, read_index
 
 T = TypeVar('T')
 SUFFIX = '_recovered'
@@ -113,6 +113,8 @@ class RecoveryReport:
         if self.skipped_chunks:
             text += '; why: ' + '; '.join(self.skipped_chunks[:3]) + (
                 '; ...' if len(self.skipped_chunks) > 3 else '')
+        if any(chunk.why == 'unread' for chunk in self.lost) and self.stopped:
+            text += f'; reading stopped there: {self.stopped}'
         if not self.was_complete and self.size > self.good_bytes:
             text += f'; {self.size - self.good_bytes} bytes at the end were unreadable'
         return text + '.'
@@ -137,6 +139,8 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     if target.exists():
         raise BagError(f'{target} exists already; remove it or choose another --out')
     scan = McapScan(mcap, strict=False)
+    index = read_index(mcap)  # a closed bag's channels: a damaged chunk may define some
+    scan.know(index.schemas, index.channels)
     messages = iter(scan)
     first = next(messages, None)  # a file that is no bag at all fails here, writing nothing
     if first is None:
