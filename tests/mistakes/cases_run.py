@@ -64,6 +64,13 @@ def a_file(tmp: Path) -> None:
     (tmp / 'notes.txt').write_text('my notes\n')
 
 
+def earlier_video(tmp: Path) -> None:
+    """A recorded run and, in tmp/videos, a video made earlier (stand-in bytes)."""
+    recorded_run(tmp)
+    (tmp / 'videos').mkdir()
+    (tmp / 'videos' / 'n3.gif').write_bytes(b'GIF89a earlier video')
+
+
 def run_in(folder: str, *options: str) -> list[str]:
     """``mona-swarm run`` of a tiny episode into ``{tmp}/<folder>``."""
     return [MONA_SWARM, 'run', *TINY, *options, '--out', '{tmp}/' + folder]
@@ -134,4 +141,12 @@ CASES = [
     Mistake('recover-a-whole-bag', [MONA_SWARM, 'recover', '{tmp}/run/bag'],
             0, r'the source bag was complete, nothing was lost', setup=recorded_run,
             unchanged=('run/bag',)),
+    Mistake('animate-over-a-video', [MONA_SWARM, 'animate', '{tmp}/run', '--out',
+                                     '{tmp}/videos/n3.gif'],
+            2, r'--out .*n3\.gif exists: choose another --out, or pass --overwrite',
+            setup=earlier_video, unchanged=('videos', 'run')),
+    Mistake('animate-into-a-folder', [MONA_SWARM, 'animate', '{tmp}/run', '--out',
+                                      '{tmp}/videos'],
+            2, r'--out .*videos is a folder', setup=earlier_video,
+            unchanged=('videos', 'run')),
 ]
