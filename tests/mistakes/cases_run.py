@@ -59,6 +59,11 @@ def speed_in_cm(tmp: Path) -> None:
     (tmp / 'cm.yaml').write_text('/**:\n  ros__parameters:\n    controller: {speed: 8}\n')
 
 
+def empty_arena(tmp: Path) -> None:
+    """A parameter file asking for no robots."""
+    (tmp / 'empty.yaml').write_text('/**:\n  ros__parameters:\n    episode: {population: 0}\n')
+
+
 def a_file(tmp: Path) -> None:
     """A plain file where an output folder would go."""
     (tmp / 'notes.txt').write_text('my notes\n')
@@ -95,6 +100,10 @@ CASES = [
     Mistake('run-population-0', [MONA_SWARM, 'run', '--population', '0', '--out',
                                  '{tmp}/new'],
             2, r'--population = 0: an episode needs at least one robot', unchanged=('new',)),
+    Mistake('run-population-0-in-the-yaml',
+            [MONA_SWARM, 'run', '--config', '{tmp}/empty.yaml', '--out', '{tmp}/new'],
+            2, r'empty\.yaml: episode\.population = 0: an episode needs at least one robot',
+            setup=empty_arena, unchanged=('new',)),
     Mistake('run-speed-in-m-per-s', run_in('new', '--speed', '0.08'),
             2, r'0\.08 cm/s looks like m/s: give cm/s, e.g\. --speed 8', unchanged=('new',)),
     Mistake('run-yaml-speed-in-cm-per-s', run_in('new', '--config', '{tmp}/cm.yaml'),

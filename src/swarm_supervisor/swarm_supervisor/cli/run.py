@@ -157,7 +157,7 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
     population = configs[0].episode.population
     if population < 1:  # the metrics of an empty arena are undefined (NaN coherency)
         source = '--population' if args.population is not None else \
-            f'episode.population in {args.config or "the default configuration"}'
+            f'{args.config or "the default configuration"}: episode.population'
         raise ParameterError(f'{source} = {population}: an episode needs at least one robot '
                              '(allowed [1, 100000])')
     place_swarm(configs[0], configs[0].episode.seed)  # PlacementError before --out is touched
