@@ -174,3 +174,33 @@ def test_a_damaged_chunk_that_defined_channels_loses_only_its_own_messages(embed
 def test_recover_of_a_whole_bag_loses_nothing_and_exits_0(embedded_bag, tmp_path, capsys):
     assert cli.main(['recover', str(embedded_bag), '--out', str(tmp_path / 'copy')]) == 0
     assert 'nothing was lost' in capsys.readouterr().out
+
+
+def test_a_chunk_cut_off_by_the_end_of_the_file_is_reported_with_its_span(embedded_bag,
+                                                                          tmp_path, capsys):
+    """A file that ends inside a chunk: the chunk's header gives its span, its count is
+    unknown (its message index comes after it), and recover exits 1."""
+    entries, _ = chunk_contents(embedded_bag / 'bag.mcap')
+    entry, _ = max(entries, key=lambda pair: pair[1])
+    source = tmp_path / 'cut' / 'cut.mcap'
+    source.parent.mkdir()
+    source.write_bytes((embedded_bag / 'bag.mcap').read_bytes()[
+        :entry.chunk_start_offset + entry.chunk_length // 2])
+    assert cli.main(['recover', str(source)]) == 1
+    said = capsys.readouterr().out
+    assert (f'LOST an unknown number of messages in 1 chunk: the cut-off chunk at byte '
+            f'{entry.chunk_start_offset}: an unknown number of messages logged t = '
+            f'{entry.message_start_time / 1e9:.3f} to {entry.message_end_time / 1e9:.3f} s'
+            ) in said, said
+
+
+def test_a_file_cut_at_a_chunk_boundary_lost_nothing_of_the_file(embedded_bag, tmp_path,
+                                                                 capsys):
+    entries, _ = chunk_contents(embedded_bag / 'bag.mcap')
+    source = tmp_path / 'cut' / 'cut.mcap'
+    source.parent.mkdir()
+    source.write_bytes((embedded_bag / 'bag.mcap').read_bytes()[
+        :entries[-1][0].chunk_start_offset])
+    assert cli.main(['recover', str(source)]) == 0
+    assert 'nothing in the file was lost, but it ends without its summary' in \
+        capsys.readouterr().out
