@@ -6,7 +6,10 @@ with :class:`~swarm_metrics.bag_reader.McapScan` in tolerant mode (the mcap libr
 parsers, each chunk checked against its CRC), keeps every message of every intact chunk, skips
 a damaged chunk whose frame is intact, stops where the framing breaks, and writes what it kept
 through :class:`~swarm_metrics.bag_writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
-the seed and parameters in custom_data, and a ``recovered`` entry saying what was lost.
+the seed and parameters in custom_data, and a ``recovered`` entry saying what was lost: each
+chunk not kept, with its message count and log-time span read from the file's own indexes
+(:mod:`swarm_metrics.losses`). A closed bag's summary also lends the scan its channels, so a
+damaged chunk that defined channels costs only its own messages.
 
 The bytes are copied as they are (no re-serialization). PyPI's ``mcapfixindex`` only rebuilds
 indexes of a file whose records are all complete, so it cannot handle a cut-off last chunk;
