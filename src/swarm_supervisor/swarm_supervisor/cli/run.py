@@ -86,11 +86,28 @@ def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult
 def run(args: argparse.Namespace) -> int:
     """Run the episode (or the episodes of several seeds) and write its outputs."""
     configs = episode_configs(args)
-    # Every check is done before this: a refused run leaves --out as it was.
-    claim_output(args.out, overwrite=args.overwrite)
     if len(configs) > 1:
+        claim_output(args.out, overwrite=args.overwrite)
         return _run_seeds(args, configs)
-    config = configs[0]
+    server = None
+    if args.live:  # before --out is claimed: a busy port must not cost a record
+        try:
+            server = LiveServer(args.port)
+        except RuntimeError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+    try:
+        # Every check is done before this: a refused run leaves --out as it was.
+        claim_output(args.out, overwrite=args.overwrite)
+        return _run_one(args, configs[0], server)
+    finally:
+        if server is not None:
+            server.stop()
+
+
+def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer | None
+             ) -> int:
+    """One episode into the claimed --out, served live to ``server`` if there is one."""
     observers: list[EpisodeObserver] = []
     recorder = None
     if args.bag:
@@ -100,22 +117,12 @@ def run(args: argparse.Namespace) -> int:
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
         observers.append(recorder)
-    server = None
-    if args.live:
-        try:
-            server = LiveServer(args.port)
-        except RuntimeError as error:
-            print(f'mona-swarm run: error: {error}', file=sys.stderr)
-            return 2
+    if server is not None:
         announce(server, 'mona-swarm run')
         observers.append(LiveView(server, pace=args.pace))
     elif args.pace is not None:
         observers.append(Pacer(args.pace))
-    try:
-        result = _run(config, observers)
-    finally:
-        if server is not None:
-            server.stop()
+    result = _run(config, observers)
     extra = {}
     if recorder is not None:
         try:
