@@ -49,6 +49,13 @@ def damaged_run(tmp: Path) -> None:
     mcap.write_bytes(bytes(data))
 
 
+def two_runs_named_alike(tmp: Path) -> None:
+    """Two recorded runs whose episode folders have one name (one/ep, two/ep)."""
+    for name in ('one', 'two'):
+        subprocess.run([MONA_SWARM, 'run', *TINY, '--bag', '--out', str(tmp / name / 'ep')],
+                       check=True, capture_output=True)
+
+
 def flat_config(tmp: Path) -> None:
     """A parameter file whose keys are not under '/**', 'ros__parameters' and sections."""
     (tmp / 'flat.yaml').write_text('population: 3\nspeed: 0.08\n')
@@ -137,6 +144,11 @@ CASES = [
                                      '{tmp}/run', '--overwrite'],
             2, r'--out .*run holds the bag being analysed', setup=recorded_run,
             unchanged=('run',)),
+    Mistake('analyze-two-bags-into-one-folder',
+            [MONA_SWARM, 'analyze', '{tmp}/one/ep/bag', '{tmp}/two/ep/bag', '--out',
+             '{tmp}/analysed'],
+            2, r'one/ep/bag and .*two/ep/bag would both be analysed into .*analysed/ep',
+            setup=two_runs_named_alike, unchanged=('one', 'two', 'analysed')),
     Mistake('analyze-a-damaged-bag', [MONA_SWARM, 'analyze', '{tmp}/run/bag'],
             2, r'chunk at byte \d+ is damaged.*`mona-swarm recover`', setup=damaged_run,
             unchanged=('run',)),
