@@ -204,3 +204,26 @@ def test_a_file_cut_at_a_chunk_boundary_lost_nothing_of_the_file(embedded_bag, t
     assert cli.main(['recover', str(source)]) == 0
     assert 'nothing in the file was lost, but it ends without its summary' in \
         capsys.readouterr().out
+
+
+def test_a_chunk_index_that_disagrees_with_the_chunk_header_is_said(embedded_bag, tmp_path):
+    """The summary is not checksummed (rosbags writes no summary CRC): a damaged chunk index
+    entry is checked against the chunk's own header, and the disagreement is reported."""
+    import struct
+
+    entries, _ = chunk_contents(embedded_bag / 'bag.mcap')
+    entry, held = max(entries, key=lambda pair: pair[1])
+    data = bytearray((embedded_bag / 'bag.mcap').read_bytes())
+    data[entry.chunk_start_offset + entry.chunk_length // 2] ^= 0x10
+    key = struct.pack('<QQQ', entry.message_start_time, entry.message_end_time,
+                      entry.chunk_start_offset)
+    at = data.rindex(key)  # the chunk index entry, in the summary
+    assert at > entry.chunk_start_offset + entry.chunk_length
+    data[at + 8 + 7] ^= 0x01  # its end time now lies far in the future
+    source = tmp_path / 's' / 's.mcap'
+    source.parent.mkdir()
+    source.write_bytes(bytes(data))
+    (lost,) = recover_bag(source).lost
+    assert lost.messages == held
+    assert (f"the chunk's header says t = {entry.message_start_time / 1e9:.3f} to "
+            f'{entry.message_end_time / 1e9:.3f} s') in lost.describe()

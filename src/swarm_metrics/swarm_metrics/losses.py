@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import struct
+import zlib
 from collections.abc import Iterable
 from io import BytesIO
 from pathlib import Path
@@ -113,7 +114,9 @@ def _chunks_from(handle: BinaryIO, size: int, offset: int) -> list[tuple[int, st
 
 
 def summary_index(handle: BinaryIO, size: int) -> Index:
-    """The chunk index and message count of a file's summary (empty if absent or damaged)."""
+    """The chunk index, message count, schemas and channels of a file's summary (empty if
+    it is absent, or damaged: its CRC in the footer does not match, or a record does not
+    parse)."""
     empty = Index({}, None)
     if size < 8 + FOOTER_BYTES + 8:
         return empty
@@ -128,6 +131,11 @@ def summary_index(handle: BinaryIO, size: int) -> Index:
     end = size - 8 - FOOTER_BYTES
     if not 0 < footer.summary_start < end:
         return empty
+    if footer.summary_crc:  # the summary is trusted only whole (0: the writer gave no CRC)
+        handle.seek(footer.summary_start)
+        covered = handle.read(end - footer.summary_start) + tail[:9 + 16]
+        if zlib.crc32(covered) != footer.summary_crc:
+            return empty
     chunks: dict[int, ChunkIndex] = {}
     schemas: dict[int, str] = {}
     channels: list[Channel] = []
@@ -157,11 +165,25 @@ def summary_index(handle: BinaryIO, size: int) -> Index:
 
 def _indexed(handle: BinaryIO, size: int, entry: ChunkIndex, why: str) -> LostChunk:
     """A lost chunk the summary indexes: its times from the index, its count from its
-    message index records (one entry per message)."""
+    message index records (one entry per message). Neither the summary nor a chunk's header
+    is checksummed (rosbags writes no summary CRC), so each figure is checked against the
+    other copy in the data section, and a disagreement is said, not settled."""
+    offset = entry.chunk_start_offset
     count = _index_entries(handle, size, entry.message_index_offsets.values())
-    return LostChunk(entry.chunk_start_offset, why, count, entry.message_start_time,
-                     entry.message_end_time, 'the chunk index'
-                     + ('' if count is not None else '; its message index is unreadable'))
+    notes = []
+    if count is None:
+        notes.append('its message index is unreadable')
+    head = _record_head(handle, size, offset)
+    if head is not None and head[0] == CHUNK and offset + 9 + head[1] <= size:
+        after = _following_entries(handle, size, offset + 9 + head[1])
+        if after is not None and count is not None and after != count:
+            notes.append(f'the message index after the chunk counts {after}')
+    times = _chunk_times(handle, size, offset)
+    if times is not None and times != (entry.message_start_time, entry.message_end_time):
+        notes.append(f"the chunk's header says t = {times[0] / 1e9:.3f} to "
+                     f'{times[1] / 1e9:.3f} s')
+    return LostChunk(offset, why, count, entry.message_start_time, entry.message_end_time,
+                     '; '.join(['the chunk index', *notes]))
 
 
 def _unindexed(handle: BinaryIO, size: int, offset: int, why: str) -> LostChunk:
