@@ -105,6 +105,7 @@ def test_bad_bags_exit_2_with_one_paragraph(original, tmp_path, capsys):
         assert cli.main(command) == 2
         err = capsys.readouterr().err
         assert 'damaged' in err and 'Traceback' not in err and err.count('\n') == 1
-    # recover skips the damaged chunk and keeps the rest
-    assert cli.main(['recover', str(bag)]) == 0
-    assert 'skipped 1 damaged chunks' in capsys.readouterr().out
+    # recover skips the damaged chunk, keeps the rest and says what was lost (exit 1)
+    assert cli.main(['recover', str(bag)]) == 1
+    out = capsys.readouterr().out
+    assert 'LOST' in out and 'in 1 chunk: the damaged chunk at byte' in out

@@ -119,8 +119,17 @@ def _coerce(name: str, value: Any, default: Any, spec: Spec) -> Any:
     if (spec.low is not None and value < spec.low) or (spec.high is not None
                                                        and value > spec.high):
         raise ParameterError(f'{name} = {value!r} is out of range: allowed '
-                             f'{spec.describe_range()} ({spec.doc})')
+                             f'{spec.describe_range()} ({spec.doc}){_unit_hint(spec)}')
     return value
+
+
+#: What to say about a unit users often confuse (the CLI's --speed is in cm/s).
+UNIT_HINTS = {'m/s': '; the file takes m/s (8 cm/s = 0.08)'}
+
+
+def _unit_hint(spec: Spec) -> str:
+    """A hint for an out-of-range value given in the wrong unit ('' if none)."""
+    return UNIT_HINTS.get(spec.unit, '')
 
 
 def validate(section: Any, prefix: str = '') -> None:

@@ -82,6 +82,7 @@ class ScanReport:
     messages: int = 0
     chunks: int = 0
     bad_chunks: list[str] = dataclasses.field(default_factory=list)
+    bad_chunk_offsets: list[int] = dataclasses.field(default_factory=list)  #: their bytes
     topics: Counter = dataclasses.field(default_factory=Counter)
     first_ns: int | None = None
     last_ns: int | None = None
@@ -120,6 +121,20 @@ class McapScan:
         self._statistics: Statistics | None = None
         self._counts: Counter = Counter()  # by channel id
 
+    def know(self, schemas: dict[int, str], channels: list[Channel]) -> None:
+        """Take schemas (id -> name) and channels from elsewhere (the summary of a damaged
+        bag), so a message whose channel was defined in a damaged chunk can still be read."""
+        self._schemas.update(schemas)
+        for item in channels:
+            self.topics.setdefault(item.id, Topic(
+                item.topic, self._schemas.get(item.schema_id, ''),
+                item.metadata.get('offered_qos_profiles', '')))
+
+    @property
+    def intact_chunks(self) -> list[int]:
+        """The byte offsets of the chunks read intact so far."""
+        return list(self._chunk_offsets)
+
     def __iter__(self) -> Iterator[RawMessage]:
         try:
             handle = open(self.path, 'rb')
@@ -129,12 +144,15 @@ class McapScan:
             self.report.size = os.fstat(handle.fileno()).st_size
             yield from self._scan(handle)
 
-    def _fail(self, message: str, *, truncated: bool = False) -> None:
+    def _fail(self, message: str, *, truncated: bool = False, damaged: bool = False) -> None:
         """Stop here: raise in strict mode, else remember why reading stopped."""
         text = f'{self.path}: {message}. Readable before that: {self.report.readable()}.'
         if truncated:
             text += (' The writer did not close the bag (killed?); `mona-swarm recover` '
                      'rewrites the readable part as a valid bag.')
+        elif damaged:
+            text += (' `mona-swarm recover` keeps every intact chunk in a new bag and reports '
+                     'what the damaged ones held.')
         if self.strict:
             raise (TruncatedBagError if truncated else BagError)(text)
         self.report.problem = text
@@ -228,8 +246,9 @@ class McapScan:
         except Exception as error:  # noqa: BLE001 - any failure to decode it is damage
             text = f'the chunk at byte {offset} is damaged ({error or type(error).__name__})'
             self.report.bad_chunks.append(text)
+            self.report.bad_chunk_offsets.append(offset)
             if self.strict:
-                self._fail(text)
+                self._fail(text, damaged=True)
             return None
 
     def _messages(self, records: list) -> list[RawMessage] | None:

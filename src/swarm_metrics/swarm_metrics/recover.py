@@ -6,7 +6,10 @@ with :class:`~swarm_metrics.bag_reader.McapScan` in tolerant mode (the mcap libr
 parsers, each chunk checked against its CRC), keeps every message of every intact chunk, skips
 a damaged chunk whose frame is intact, stops where the framing breaks, and writes what it kept
 through :class:`~swarm_metrics.bag_writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
-the seed and parameters in custom_data, and a ``recovered`` entry saying what was lost.
+the seed and parameters in custom_data, and a ``recovered`` entry saying what was lost: each
+chunk not kept, with its message count and log-time span read from the file's own indexes
+(:mod:`swarm_metrics.losses`). A closed bag's summary also lends the scan its channels, so a
+damaged chunk that defined channels costs only its own messages.
 
 The bytes are copied as they are (no re-serialization). PyPI's ``mcapfixindex`` only rebuilds
 indexes of a file whose records are all complete, so it cannot handle a cut-off last chunk;
@@ -37,6 +40,7 @@ from swarm_metrics.bag_reader import (
     read_custom_data,
 )
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE, EpisodeBagWriter
+from swarm_metrics.losses import LostChunk, lost_chunks, read_index
 
 T = TypeVar('T')
 SUFFIX = '_recovered'
@@ -57,22 +61,65 @@ class RecoveryReport:
     skipped_chunks: list[str]
     skipped_messages: int  #: intact messages of a type rosbags does not know
     stopped: str | None  #: why reading stopped before the end of the data ('' if it did not)
-    was_complete: bool  #: the source was a closed bag (then nothing was lost)
+    was_complete: bool  #: the source's data section ended properly (a closed bag)
+    lost: list[LostChunk] = dataclasses.field(default_factory=list)  #: chunks not kept
+    indexed_messages: int | None = None  #: the source summary's message count, if any
+
+    @property
+    def lost_messages(self) -> int:
+        """Messages of the source not in the recovered bag, as far as counted (see
+        :attr:`lost_unknown`): those of the lost chunks and those of unknown types."""
+        return sum(chunk.messages or 0 for chunk in self.lost) + self.skipped_messages
+
+    @property
+    def lost_unknown(self) -> bool:
+        """A lost chunk whose message count the file does not say."""
+        return any(chunk.messages is None for chunk in self.lost)
+
+    @property
+    def anything_lost(self) -> bool:
+        """Whether a message of the source file is missing from the recovered bag."""
+        return bool(self.lost) or self.skipped_messages > 0
+
+    def to_dict(self) -> dict:
+        """What was lost, for the recovered bag's ``recovered`` entry and for tools."""
+        return {'source': str(self.source), 'kept_bytes': self.good_bytes, 'size': self.size,
+                'messages': self.messages, 'skipped_chunks': len(self.skipped_chunks),
+                'stopped': self.stopped, 'lost_messages': self.lost_messages,
+                'lost_count_unknown': self.lost_unknown,
+                'lost_chunks': [dataclasses.asdict(chunk) for chunk in self.lost]}
 
     def summary(self) -> str:
-        """One paragraph for the user."""
+        """One paragraph for the user: what was kept, then exactly what was lost."""
         span = ('' if self.first_ns is None else
                 f', log time {self.first_ns / 1e9:.3f} to {self.last_ns / 1e9:.3f} s')
         text = (f'recovered {self.messages} messages on {len(self.topics)} topics{span} from '
-                f'{self.source} into {self.target}; kept {self.good_bytes} of {self.size} '
-                f'bytes ({self.size - self.good_bytes} lost at the end)')
-        if self.was_complete:
-            text += '; the source bag was complete, nothing was lost'
-        if self.skipped_chunks:
-            text += f'; skipped {len(self.skipped_chunks)} damaged chunks: ' + '; '.join(
-                self.skipped_chunks[:3]) + ('; ...' if len(self.skipped_chunks) > 3 else '')
+                f'{self.source} into {self.target}')
+        if not self.anything_lost:
+            text += ('; the source bag was complete, nothing was lost' if self.was_complete
+                     else f'; nothing in the file was lost, but it ends without its summary '
+                          f'at byte {self.size} (the writer was killed?): what it had not '
+                          'written yet is not in it')
+            return text + '.'
+        counted = (str(self.lost_messages) if not self.lost_unknown else
+                   f'at least {self.lost_messages}' if self.lost_messages else
+                   'an unknown number of')
+        total = ('' if self.indexed_messages is None else
+                 f" of the {self.indexed_messages} the source's summary counts")
+        text += f'; LOST {counted} messages{total}'
+        if self.lost:
+            text += (f' in {len(self.lost)} chunk{"s" if len(self.lost) > 1 else ""}: '
+                     + '; '.join(chunk.describe() for chunk in self.lost[:5])
+                     + ('; ...' if len(self.lost) > 5 else ''))
         if self.skipped_messages:
             text += f'; dropped {self.skipped_messages} messages of unknown types'
+        if self.skipped_chunks:
+            text += '; why: ' + '; '.join(self.skipped_chunks[:3]) + (
+                '; ...' if len(self.skipped_chunks) > 3 else '')
+        if any(chunk.why == 'unread' for chunk in self.lost) and self.stopped:
+            text += f'; reading stopped there: {self.stopped}'
+        if not self.was_complete and self.size > self.good_bytes:
+            text += f'; {self.size - self.good_bytes} bytes at the end were unreadable'
         return text + '.'
 
 
@@ -95,6 +142,8 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     if target.exists():
         raise BagError(f'{target} exists already; remove it or choose another --out')
     scan = McapScan(mcap, strict=False)
+    index = read_index(mcap)  # a closed bag's channels: a damaged chunk may define some
+    scan.know(index.schemas, index.channels)
     messages = iter(scan)
     first = next(messages, None)  # a file that is no bag at all fails here, writing nothing
     if first is None:
@@ -124,14 +173,15 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
                     bag.set_custom(key[len(CUSTOM_PREFIX):], str(value))
             if announcement is not None:
                 bag.describe(announcement)
+            found = scan.report
+            lost, index = lost_chunks(
+                mcap, intact=scan.intact_chunks, damaged=found.bad_chunk_offsets,
+                stopped_at=None if found.data_complete else found.good_bytes)
             report = RecoveryReport(
-                mcap, target, scan.report.size, scan.report.good_bytes, sum(topics.values()),
-                topics, scan.report.first_ns, scan.report.last_ns, scan.report.bad_chunks,
-                skipped, scan.report.problem or '', scan.report.data_complete)
-            bag.set_custom('recovered', json.dumps(
-                {'source': str(mcap), 'kept_bytes': report.good_bytes, 'size': report.size,
-                 'messages': report.messages, 'skipped_chunks': len(report.skipped_chunks),
-                 'stopped': report.stopped}))
+                mcap, target, found.size, found.good_bytes, sum(topics.values()), topics,
+                found.first_ns, found.last_ns, found.bad_chunks, skipped,
+                found.problem or '', found.data_complete, lost, index.messages)
+            bag.set_custom('recovered', json.dumps(report.to_dict()))
     except WriterError as error:
         shutil.rmtree(target, ignore_errors=True)
         raise BagError(f'cannot write {target}: {error}') from None

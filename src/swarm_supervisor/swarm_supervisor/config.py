@@ -173,14 +173,55 @@ class SwarmConfig:
         return steps_for(self.episode.duration, self.world.step_ns)
 
 
+#: The shape of a parameter file, for the message about a file of another shape.
+SKELETON = """  /**:
+    ros__parameters:
+      episode: {population: 30, duration: 4000.0, seed: 1}
+      controller: {speed: 0.08}   # m/s
+      world: {arena_side: 2.85}
+  (each parameter under its section; ros_ws/config/mona_swarm.yaml has them all)"""
+
+
+def _sections_of(names: Any) -> str:
+    """For keys that are parameters rather than sections, where each belongs ('' if none)."""
+    homes = {}
+    for section in dataclasses.fields(SwarmConfig):
+        for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc]
+            homes.setdefault(field.name, []).append(f'{section.name}.{field.name}')
+    found = [' or '.join(homes[name]) for name in names if isinstance(name, str)
+             and name in homes]
+    return f' ({", ".join(found)}?)' if found else ''
+
+
 def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> SwarmConfig:
-    """Build a config from a parsed ROS parameter file (its ``/**`` section)."""
+    """Build a config from a parsed ROS parameter file (its ``/**`` section).
+
+    Raises:
+        ParameterError: starting with ``source`` (once): a file of another shape (shown the
+            skeleton), an unknown or a bad parameter.
+    """
     if not isinstance(document, dict) or '/**' not in document:
-        raise ParameterError(f"{source}: expected a ROS 2 parameter file with a '/**' section")
+        keys = list(document) if isinstance(document, dict) else []
+        raise ParameterError(
+            f"{source}: expected a ROS 2 parameter file with a '/**' section holding "
+            f"'ros__parameters', each parameter under its section{_sections_of(keys)}; found "
+            f'{", ".join(map(str, keys[:6])) if keys else type(document).__name__} at the '
+            f'top. The skeleton:\n{SKELETON}')
     section = document['/**']
     if not isinstance(section, dict) or set(section) != {'ros__parameters'}:
-        raise ParameterError(f"{source}: '/**' must hold exactly 'ros__parameters'")
-    return from_mapping(SwarmConfig, section['ros__parameters'] or {})
+        raise ParameterError(f"{source}: '/**' must hold exactly 'ros__parameters'. The "
+                             f'skeleton:\n{SKELETON}')
+    parameters = section['ros__parameters'] or {}
+    sections = {field.name for field in dataclasses.fields(SwarmConfig)}
+    if isinstance(parameters, dict) and set(parameters) - sections:
+        flat = sorted(set(parameters) - sections, key=str)
+        raise ParameterError(f'{source}: {", ".join(map(str, flat))} not in a section'
+                             f'{_sections_of(flat)}; the sections are '
+                             f'{", ".join(sorted(sections))}. The skeleton:\n{SKELETON}')
+    try:
+        return from_mapping(SwarmConfig, parameters)
+    except ParameterError as error:
+        raise ParameterError(f'{source}: {error}') from None
 
 
 def load_config(path: str | Path | None = None) -> SwarmConfig:
@@ -196,10 +237,7 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
         raise ParameterError(f'cannot read {path}: {error.strerror}') from None
     except yaml.YAMLError as error:
         raise ParameterError(f'{path} is not valid YAML: {error}') from None
-    try:
-        return config_from_ros_yaml(document, str(path))
-    except ParameterError as error:
-        raise ParameterError(f'{path}: {error}') from None
+    return config_from_ros_yaml(document, str(path))
 
 
 def write_ros_yaml(config: SwarmConfig, path: str | Path) -> None:

@@ -26,6 +26,18 @@ class PlacementError(ValueError):
     """The population cannot be placed in the arena."""
 
 
+def _fitting(floor: float, body_radius: float) -> int:
+    """How many robots the coverage limit lets onto ``floor`` m^2."""
+    return max(0, math.floor(MAX_COVERAGE * floor / (math.pi * body_radius ** 2)))
+
+
+def _side_for(population: int, body_radius: float, obstacle_area: float) -> float:
+    """The smallest arena side (m) that holds ``population`` within the coverage limit,
+    rounded up to the centimetre shown."""
+    side = math.sqrt(population * math.pi * body_radius ** 2 / MAX_COVERAGE + obstacle_area)
+    return math.ceil(side * 100) / 100
+
+
 def placement_rng(seed: int) -> np.random.Generator:
     """The generator placement draws from for an episode seed."""
     return np.random.default_rng([seed, PLACEMENT_STREAM])
@@ -60,7 +72,10 @@ def place_robots(population: int, arena_side: float, body_radius: float,
             f'population {population} does not fit a {arena_side} m arena'
             f'{" with its obstacles" if obstacles else ""}: robots of radius '
             f'{body_radius} m would cover {coverage:.0%} of the floor (at most '
-            f'{MAX_COVERAGE:.0%})')
+            f'{MAX_COVERAGE:.0%}); run a smaller population (at most '
+            f'{_fitting(floor, body_radius)} fit) or a bigger world.arena_side (at least '
+            f'{_side_for(population, body_radius, arena_side ** 2 - floor):.2f} m for '
+            f'{population})')
     low, high = body_radius + gap, arena_side - body_radius - gap
     if low >= high:
         raise PlacementError(f'a robot of radius {body_radius} m does not fit a '

@@ -25,7 +25,10 @@ def register(subparsers) -> None:
     parser.add_argument('episode', type=Path, metavar='EPISODE_DIR_OR_BAG',
                         help='an episode folder with bag/, a bag directory or its .mcap')
     parser.add_argument('--out', type=Path, required=True, metavar='VIDEO',
-                        help='the video to write: .mp4 (H.264) or .gif')
+                        help='the video to write: .mp4 (H.264) or .gif; an existing file is '
+                             'refused unless --overwrite')
+    parser.add_argument('--overwrite', action='store_true',
+                        help='replace an existing video')
     parser.add_argument('--speedup', type=bounded(float, 0.01, 1e6), default=100.0,
                         metavar='X', help='sim seconds per video second (default 100)')
     parser.add_argument('--fps', type=bounded(float, 1, 120), default=25.0, metavar='F',
@@ -37,6 +40,10 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Render the video; exit 2 for a bad input, 0 once the video is whole."""
+    refused = _refused_output(args.out, overwrite=args.overwrite)
+    if refused:
+        print(f'mona-swarm animate: error: {refused}', file=sys.stderr)
+        return 2
     started = time.perf_counter()
     with tqdm(unit='frame', desc='animate', disable=None, file=sys.stderr) as bar:
         def progress(done: int, total: int) -> None:
@@ -54,3 +61,13 @@ def run(args: argparse.Namespace) -> int:
           f'{written["height"]}, {written["fps"]:g} fps) of {written["duration_s"]:g} s at '
           f'{written["speedup"]:g}x in {time.perf_counter() - started:.1f} s')
     return 0
+
+
+def _refused_output(out: Path, *, overwrite: bool) -> str | None:
+    """Why ``out`` may not be written (None when it may): a folder, or a file already there
+    (a video that took minutes to render is not replaced by a slip) without ``overwrite``."""
+    if out.is_dir():
+        return f"--out {out} is a folder: give the video's file name (.mp4 or .gif)"
+    if out.exists() and not overwrite:
+        return f'--out {out} exists: choose another --out, or pass --overwrite to replace it'
+    return None

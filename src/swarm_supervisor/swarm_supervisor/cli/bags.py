@@ -23,11 +23,17 @@ from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode
 from swarm_metrics.completeness import Finding
 from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
 from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.cli.bag_outputs import (
+    ANALYSIS_SUFFIX,
+    check_outputs,
+    claim,
+    episode_bag,
+    output_folder,
+)
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import EpisodeResult
 from swarm_supervisor.outputs.episode_folder import write_episode
 
-BAG_NAMES = ('bag', 'bag' + SUFFIX)  # the metrics node's bag folder (and its recovered copy)
 INCOMPLETE, BAD_BAG = 1, 2  # exit statuses
 #: episode.json fields of the embedded runner that a bag cannot give.
 EMBEDDED_ONLY = ('encounters', 'wall_time_s', 'real_time_factor')
@@ -60,14 +66,21 @@ def register(subparsers) -> None:
         'analyze', help='recompute the metrics of episode bags',
         description='Recompute every metric from episode bags (rosbag2 directories or .mcap '
                     'files) and write metrics.csv, episode.json, snapshots.npz and a final cue '
-                    'map PNG per bag, like `mona-swarm run`. A bag whose writer was killed is '
+                    f'map PNG per bag, like `mona-swarm run`, into <bag>{ANALYSIS_SUFFIX} '
+                    'beside each bag or into --out (never into the folder holding the bag, '
+                    'whose own record it would overwrite). A bag whose writer was killed is '
                     'recovered first. A bag that fails a completeness check (missing seconds, '
                     'no finished status, a cue map the cleaning record does not rebuild, ...) '
                     'is an error (exit status 1) unless --allow-incomplete.')
-    parser.add_argument('bags', nargs='+', type=Path, metavar='BAG')
+    parser.add_argument('bags', nargs='+', type=Path, metavar='BAG',
+                        help='a bag directory, its .mcap, or an episode folder holding bag/')
     parser.add_argument('--out', type=Path, metavar='DIR',
                         help='output folder (with several bags: one subfolder each); default: '
-                             'the folder holding each bag (episode_<k>/)')
+                             f'<bag>{ANALYSIS_SUFFIX} beside each bag (episode_<k>/bag'
+                             f'{ANALYSIS_SUFFIX}); a folder holding a record is refused '
+                             'unless --overwrite')
+    parser.add_argument('--overwrite', action='store_true',
+                        help='replace an output folder that holds a record whole')
     parser.add_argument('--allow-incomplete', action='store_true',
                         help=ALLOW_HELP + '; the findings go into episode.json')
     parser.set_defaults(handler=analyze)
@@ -89,7 +102,10 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         'recover', help='salvage a bag whose writer was killed',
         description='Rewrite every intact message of a bag (e.g. one without its MCAP '
-                    'summary after a crash) as a valid bag, and report what was kept.')
+                    'summary after a crash) as a valid bag, and report what was kept and '
+                    'what was lost: the messages and log-time span of each damaged or '
+                    "cut-off chunk, from the bag's own indexes. Exit status 0 when no "
+                    'message of the file was lost, 1 when some were.')
     parser.add_argument('bag', type=Path, metavar='BAG')
     parser.add_argument('--out', type=Path, metavar='DIR',
                         help=f'the recovered bag (default: <BAG>{SUFFIX})')
@@ -103,25 +119,6 @@ def _bad_bag(command: str, error: Exception, status: int = BAD_BAG) -> int:
 
 # --- analyze ------------------------------------------------------------------------------
 
-def bag_directory(path: Path) -> Path:
-    """The bag itself: its rosbag2 directory, or a lone .mcap file."""
-    path = path.resolve()
-    if path.suffix == '.mcap' and path.parent.name == path.stem:
-        return path.parent  # rosbags' layout: <dir>/<dir>.mcap
-    return path
-
-
-def output_folder(path: Path, out: Path | None, several: bool) -> Path:
-    """Where a bag's analysis goes: next to the bag (the episode_<k>/ folder holding it), or
-    ``out``, or with several bags a subfolder of ``out`` named after the episode or bag."""
-    bag = bag_directory(path)
-    if out is None:
-        return bag.parent
-    if not several:
-        return out
-    return out / (bag.parent.name if bag.name.startswith(BAG_NAMES) else bag.stem)
-
-
 def analyze(args: argparse.Namespace) -> int:
     """Recompute and write each bag's outputs; a bad or incomplete bag is reported and skipped.
 
@@ -129,10 +126,17 @@ def analyze(args: argparse.Namespace) -> int:
         2 if a bag was unreadable, else 1 if one failed a completeness check, else 0.
     """
     status = 0
-    for path in args.bags:
-        out = output_folder(path, args.out, len(args.bags) > 1)
+    try:
+        bags = [episode_bag(path) for path in args.bags]
+    except BagError as error:
+        return _bad_bag('analyze', error)
+    outs = [output_folder(bag, args.out, len(bags) > 1) for bag in bags]
+    # Every output folder is checked before any bag is read: a refusal writes nothing.
+    check_outputs(bags, outs, overwrite=args.overwrite, explicit=args.out is not None)
+    for path, out in zip(bags, outs):
         try:
-            message = analyze_bag(path, out, allow_incomplete=args.allow_incomplete)
+            message = analyze_bag(path, out, allow_incomplete=args.allow_incomplete,
+                                  overwrite=args.overwrite)
         except IncompleteBagError as error:
             status = max(status, _bad_bag('analyze', error, INCOMPLETE))
             continue
@@ -143,7 +147,8 @@ def analyze(args: argparse.Namespace) -> int:
     return status
 
 
-def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False) -> str:
+def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
+                overwrite: bool = False) -> str:
     """Recompute one bag into ``out``; returns the lines to print.
 
     Args:
@@ -151,11 +156,13 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False) -> str
         out: the episode folder to write.
         allow_incomplete: write the outputs of a bag that fails a completeness check (the
             findings go into episode.json) instead of raising.
+        overwrite: replace a record in ``out`` whole (else it is refused).
 
     Raises:
         BagError: the bag is unreadable.
         IncompleteBagError: it fails a completeness check (with a bad announcement, even
             when ``allow_incomplete``: there is nothing to analyse it with).
+        RecordExists: ``out`` holds a record and not ``overwrite``.
     """
     bag, note = with_recovery(path, read_episode_bag)
     findings = completeness.check_announcement(bag)
@@ -185,6 +192,7 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False) -> str
                                                          / config.world.step_period),
         wall_time=time.perf_counter() - started)
     status = result.last_status or {}
+    claim(out, overwrite=overwrite)  # only now: a failed analysis leaves a record in place
     # The embedded runner's record, less its timing, plus what a bag can tell.
     write_episode(episode, out, runner='ros', omit=EMBEDDED_ONLY, extra={
         'episode': setup.episode, 'bag': str(bag.path), 'recovered': note is not None,
@@ -212,13 +220,19 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False) -> str
 # --- recover ------------------------------------------------------------------------------
 
 def recover(args: argparse.Namespace) -> int:
-    """Salvage a bag and report what was kept."""
+    """Salvage a bag and report what was kept and what was lost.
+
+    Returns:
+        0 when every message of the source file is in the recovered bag, 1 when some were
+        lost (a damaged or cut-off chunk, a message of an unknown type), 2 when nothing
+        could be recovered.
+    """
     try:
         report = recover_bag(args.bag, args.out)
     except BagError as error:
         return _bad_bag('recover', error)
     print(report.summary())
-    return 0
+    return INCOMPLETE if report.anything_lost else 0
 
 
 # --- replay -------------------------------------------------------------------------------

@@ -13,8 +13,10 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from swarm_supervisor.cli.arguments import bounded
+from mona_controller.schema import ParameterError
+from swarm_supervisor.cli.arguments import bounded, speed_cm_s
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.engine.episode import place_swarm
 from swarm_supervisor.engine.runner import (
     EpisodeObserver,
     EpisodeResult,
@@ -25,6 +27,7 @@ from swarm_supervisor.engine.runner import (
 from swarm_supervisor.media.live import DEFAULT_PORT, LiveServer, LiveView, announce
 from swarm_supervisor.outputs.bag import BagRecorder, RecordError
 from swarm_supervisor.outputs.episode_folder import write_episode
+from swarm_supervisor.outputs.guard import claim_output
 from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 
 
@@ -36,8 +39,9 @@ def register(subparsers) -> None:
                     'snapshots.npz and a final cue-map PNG into --out; with --bag also its '
                     'rosbag2/MCAP record (--out/bag), as the metrics node writes it.')
     parser.add_argument('--population', type=int, help='number of robots N (default: config)')
-    parser.add_argument('--speed', type=bounded(float, 0, 100, 'cm/s'), metavar='CM_PER_S',
-                        help='forward speed in cm/s, e.g. 8 or 4 (default: config)')
+    parser.add_argument('--speed', type=speed_cm_s, metavar='CM_PER_S',
+                        help='forward speed in cm/s, e.g. 8 or 4 (default: config, whose '
+                             'controller.speed is in m/s); below 0.5 is refused as m/s')
     parser.add_argument('--seed', type=int, nargs='+',
                         help='episode seed (default: config); several seeds run as episodes '
                              'stepped together (the batched engine), each into DIR/s<seed>')
@@ -47,7 +51,11 @@ def register(subparsers) -> None:
     parser.add_argument('--duration', type=float, metavar='SECONDS',
                         help='simulated episode length (default: config)')
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
-                        help='output folder (created)')
+                        help='output folder (created); one holding a record is refused '
+                             'unless --overwrite')
+    parser.add_argument('--overwrite', action='store_true',
+                        help='replace --out whole if it holds a record (a run, episode, study '
+                             'or bag)')
     parser.add_argument('--config', type=Path, metavar='YAML',
                         help='ROS 2 parameter file (default: ros_ws/config/mona_swarm.yaml)')
     parser.add_argument('--bag', action='store_true',
@@ -77,15 +85,29 @@ def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult
 
 def run(args: argparse.Namespace) -> int:
     """Run the episode (or the episodes of several seeds) and write its outputs."""
-    if args.seed is not None and len(args.seed) > 1:
-        return _run_seeds(args)
-    config = load_config(args.config)
-    episode = {key: value for key, value in (('population', args.population),
-                                              ('seed', args.seed and args.seed[0]),
-                                              ('duration', args.duration))
-               if value is not None}
-    controller = {} if args.speed is None else {'speed': args.speed / 100}
-    config = config.replace(episode=episode, controller=controller)
+    configs = episode_configs(args)
+    if len(configs) > 1:
+        claim_output(args.out, overwrite=args.overwrite)
+        return _run_seeds(args, configs)
+    server = None
+    if args.live:  # before --out is claimed: a busy port must not cost a record
+        try:
+            server = LiveServer(args.port)
+        except RuntimeError as error:
+            print(f'mona-swarm run: error: {error}', file=sys.stderr)
+            return 2
+    try:
+        # Every check is done before this: a refused run leaves --out as it was.
+        claim_output(args.out, overwrite=args.overwrite)
+        return _run_one(args, configs[0], server)
+    finally:
+        if server is not None:
+            server.stop()
+
+
+def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer | None
+             ) -> int:
+    """One episode into the claimed --out, served live to ``server`` if there is one."""
     observers: list[EpisodeObserver] = []
     recorder = None
     if args.bag:
@@ -95,22 +117,12 @@ def run(args: argparse.Namespace) -> int:
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
         observers.append(recorder)
-    server = None
-    if args.live:
-        try:
-            server = LiveServer(args.port)
-        except RuntimeError as error:
-            print(f'mona-swarm run: error: {error}', file=sys.stderr)
-            return 2
+    if server is not None:
         announce(server, 'mona-swarm run')
         observers.append(LiveView(server, pace=args.pace))
     elif args.pace is not None:
         observers.append(Pacer(args.pace))
-    try:
-        result = _run(config, observers)
-    finally:
-        if server is not None:
-            server.stop()
+    result = _run(config, observers)
     extra = {}
     if recorder is not None:
         try:
@@ -128,21 +140,42 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_seeds(args: argparse.Namespace) -> int:
-    """Several seeds: batches of episodes stepped together, each written into DIR/s<seed> as
-    soon as it is done (the same files as ``run --seed S --out DIR/s<seed>``)."""
-    if args.live or args.pace is not None:
-        print('mona-swarm run: error: --live and --pace take one seed', file=sys.stderr)
-        return 2
+def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
+    """The configuration of each episode: the file's with the options applied, one per seed.
+
+    Raises:
+        ParameterError: a bad value (from the file or an option), a seed given twice, an
+            empty arena, or --live/--pace with several seeds.
+    """
+    seeds = args.seed or [None]
+    repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
+    if repeated:  # two episodes would write one folder, DIR/s<seed>
+        raise ParameterError(f'--seed {" ".join(map(str, seeds))} repeats seed '
+                             f'{repeated[0]}: give each seed once')
+    if len(seeds) > 1 and (args.live or args.pace is not None):
+        raise ParameterError('--live and --pace take one seed')
     base = load_config(args.config)
     episode = {key: value for key, value in (('population', args.population),
                                               ('duration', args.duration))
                if value is not None}
     controller = {} if args.speed is None else {'speed': args.speed / 100}
-    configs = [base.replace(episode={**episode, 'seed': seed}, controller=controller)
-               for seed in args.seed]
+    configs = [base.replace(episode={**episode, **({} if seed is None else {'seed': seed})},
+                            controller=controller) for seed in seeds]
+    population = configs[0].episode.population
+    if population < 1:  # the metrics of an empty arena are undefined (NaN coherency)
+        source = '--population' if args.population is not None else \
+            f'{args.config or "the default configuration"}: episode.population'
+        raise ParameterError(f'{source} = {population}: an episode needs at least one robot '
+                             '(allowed [1, 100000])')
+    place_swarm(configs[0], configs[0].episode.seed)  # PlacementError before --out is touched
+    return configs
+
+
+def _run_seeds(args: argparse.Namespace, configs: list[SwarmConfig]) -> int:
+    """Several seeds: batches of episodes stepped together, each written into DIR/s<seed> as
+    soon as it is done (the same files as ``run --seed S --out DIR/s<seed>``)."""
     folders = [args.out / f's{seed}' for seed in args.seed]
-    times = base.study.snapshot_times + (configs[0].episode.duration,)
+    times = configs[0].study.snapshot_times + (configs[0].episode.duration,)
     status = 0
     for first in range(0, len(configs), args.batch_size):
         chunk = range(first, min(first + args.batch_size, len(configs)))
