@@ -3,6 +3,7 @@ and resumed or not; a bad design is refused naming the key; the fitness does not
 how the episodes are batched."""
 
 import dataclasses
+import json
 import re
 import signal
 import subprocess
@@ -85,3 +86,20 @@ def test_the_fitness_does_not_depend_on_the_batches(tmp_path):
     one = evaluate(dataclasses.replace(design, batch=1), genomes, 0, tmp_path / 'a', None, 1)
     six = evaluate(dataclasses.replace(design, batch=6), genomes, 0, tmp_path / 'b', None, 1)
     assert one == six and len(set(one)) == 3
+
+
+def test_the_post_evaluation_pairs_the_best_genome_with_beeclust_on_held_out_seeds(tmp_path):
+    from swarm_supervisor.evolution import evolve
+    from swarm_supervisor.evolution.compare import held_out_seeds
+    from swarm_supervisor.evolution.fitness import training_seeds
+
+    design = load_design(write_design(tmp_path / 'tiny.yaml', generations=1, duration=20.0,
+                                      held_out=6))
+    seeds = held_out_seeds(design)
+    assert len(set(seeds)) == 6 and not set(seeds) & set(training_seeds(design, 0))
+    evolve(design, tmp_path / 'out', shown=False)
+    summary = json.loads((tmp_path / 'out' / 'compare.json').read_text())
+    assert list(summary) == ['default'] and summary['default']['episodes'] == 6
+    rows = read_csv(tmp_path / 'out' / 'compare.csv')
+    assert [int(row['seed']) for row in rows] == seeds
+    assert (tmp_path / 'out' / 'compare.png').stat().st_size > 0

@@ -16,6 +16,10 @@ A design is a YAML file with one mapping, ``evolve``::
       hidden: 8                    # the net: hidden neurons (controller.network_hidden)
       recurrent: false             # an Elman net (controller.network_recurrent)
       batch: 32                    # at most this many episodes stepped together per worker
+      held_out: 100                # then: the best genome and BEECLUST on this many held-out
+                                   # seeds (0: none; evolution.compare)
+      compare: [../mona_swarm.yaml, moving_leaks.yaml]   # on these parameter files
+                                   # (relative to this file; default: the design's config)
 
 Every key is checked when the design is loaded: an unknown key or a value out of range is
 refused with a message that names it (:class:`EvolutionError`, exit status 2).
@@ -52,7 +56,11 @@ KEYS: dict[str, tuple[type, float | None, float | None, Any]] = {
     'hidden': (int, 1, MAX_HIDDEN, 8),
     'recurrent': (bool, None, None, False),
     'batch': (int, 1, 4096, 32),
+    'held_out': (int, 0, 100_000, 0),
+    'compare': (list, None, None, []),
 }
+#: The keys of the post-evaluation, which leave the evolution itself unchanged.
+AFTERWARDS = ('held_out', 'compare')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,10 +80,13 @@ class Design:
     hidden: int
     recurrent: bool
     batch: int
+    held_out: int
+    compare: tuple[str, ...]
 
     def to_dict(self) -> dict[str, Any]:
         """The design's keys and values."""
-        return {key: getattr(self, key) for key in KEYS}
+        return {key: list(value) if isinstance(value, tuple) else value
+                for key, value in ((key, getattr(self, key)) for key in KEYS)}
 
     @property
     def genome_size(self) -> int:
@@ -84,13 +95,18 @@ class Design:
 
     def digest(self) -> str:
         """What a resumed run must match: the keys and the base parameters."""
-        return json.dumps({'design': self.to_dict(), 'base': self.base.to_dict()},
+        design = {k: v for k, v in self.to_dict().items() if k not in AFTERWARDS}
+        return json.dumps({'design': design, 'base': self.base.to_dict()},
                           sort_keys=True, default=str)
 
 
 def _checked(key: str, value: Any) -> Any:
     kind, low, high, _ = KEYS[key]
     name = f'evolve.{key}'
+    if kind is list:
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise EvolutionError(f'{name} = {value!r}: expected a list of parameter files')
+        return value
     if kind is bool or kind is str:
         if not isinstance(value, kind):
             raise EvolutionError(f'{name} = {value!r}: expected '
@@ -133,6 +149,13 @@ def design_from_mapping(document: Any, path: str | Path = 'the design') -> Desig
         base = load_config(config or None)
     except ParameterError as error:
         raise EvolutionError(f'{path}: evolve.config: {error}') from None
+    compare = [str((Path(path).parent / name).resolve()) for name in values['compare']]
+    for k, name in enumerate(compare):
+        try:
+            load_config(name)
+        except ParameterError as error:
+            raise EvolutionError(f'{path}: evolve.compare[{k}]: {error}') from None
+    values['compare'] = tuple(compare)
     return Design(path=str(path), base=base, **values)
 
 

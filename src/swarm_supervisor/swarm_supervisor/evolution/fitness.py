@@ -77,16 +77,23 @@ def batches(configs: Sequence[SwarmConfig], size: int, jobs: int) -> list[list[S
     return [list(configs[k:k + per]) for k in range(0, len(configs), per)]
 
 
-def evaluate(design: Design, genomes: np.ndarray, generation: int, folder: Path,
-             pool: Any | None, jobs: int) -> list[float]:
-    """Each genome's fitness (the mean over its episodes), on ``pool`` (a
-    multiprocessing pool of ``jobs`` processes) or in this process."""
-    configs = generation_configs(design, genomes, generation, folder)
-    cut = batches(configs, design.batch, jobs)
+def run_scores(configs: Sequence[SwarmConfig], size: int, pool: Any | None,
+               jobs: int) -> list[float]:
+    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool``
+    (``jobs`` processes) or in this process."""
+    cut = batches(configs, size, jobs)
     if pool is None:
         scores = [run_configs(batch) for batch in cut]
     else:
         scores = pool.map(run_configs, cut, chunksize=1)
-    flat = [score for batch in scores for score in batch]
+    return [score for batch in scores for score in batch]
+
+
+def evaluate(design: Design, genomes: np.ndarray, generation: int, folder: Path,
+             pool: Any | None, jobs: int) -> list[float]:
+    """Each genome's fitness (the mean over its episodes), on ``pool`` (a
+    multiprocessing pool of ``jobs`` processes) or in this process."""
+    flat = run_scores(generation_configs(design, genomes, generation, folder), design.batch,
+                      pool, jobs)
     per = design.episodes
     return [math.fsum(flat[i * per:(i + 1) * per]) / per for i in range(len(genomes))]

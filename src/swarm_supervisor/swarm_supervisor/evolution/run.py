@@ -12,7 +12,9 @@ interrupted or not (wall times aside).
 
 Outputs in the folder: ``generations.csv`` (generation, best, mean, worst, sigma, wall_s),
 ``fitness.png``, ``best.npz`` (the best genome evaluated so far, as weights), ``design.yaml``
-(the design's checked values) and ``genomes/`` (the current generation's weights files).
+(the design's checked values) and ``genomes/`` (the current generation's weights files);
+with ``held_out`` > 0, the post-evaluation's compare.csv, compare.json and compare.png
+(:mod:`swarm_supervisor.evolution.compare`).
 """
 
 from __future__ import annotations
@@ -154,6 +156,10 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, shown: bool | None = Non
                 bar.set_postfix(best=f'{state["best"][0]:.4f}')
                 if on_checkpoint is not None:
                     on_checkpoint(generation)
+        if design.held_out and not (out / 'compare.json').exists():
+            from swarm_supervisor.evolution.compare import compare
+
+            compare(design, out, pool, jobs)
         if pool is not None:
             pool.close()
     except BaseException:
