@@ -145,3 +145,21 @@ def test_bad_weights_are_refused_naming_the_key(tmp_path):
     with pytest.raises(ValueError, match='a genome of 3 weights'):
         weights_from_genome([0.0] * 3, K, 4, False)
     assert genome_size(K, 4, True) == sum(np.prod(s) for s in shapes(15, 4, True).values())
+
+
+def test_the_shipped_evolved_controller_fits_the_design_that_made_it(monkeypatch):
+    from pathlib import Path
+
+    from swarm_supervisor.config import load_config
+    from swarm_supervisor.evolution import load_design
+
+    root = Path(__file__).resolve().parents[2]
+    monkeypatch.chdir(root)  # its weights path is relative to the repository root
+    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / 'evolved.yaml')
+    design = load_design(root / 'ros_ws' / 'config' / 'designs' / 'evolve.yaml')
+    assert config.controller.kind == 'network'
+    assert config.controller.network_hidden == design.hidden
+    assert config.controller.network_recurrent == design.recurrent
+    arrays = net_weights(config.controller, config.mona)
+    assert sum(a.size for a in arrays.values()) == design.genome_size
+    make_controller(config.controller, config.mona, range(3))
