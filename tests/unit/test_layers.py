@@ -25,7 +25,8 @@ SRC = Path(__file__).resolve().parents[2] / 'src'
 PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor')
 #: swarm_supervisor's layers, bottom first; the names of one layer are siblings.
 SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs', 'envs'), ('media',),
-                     ('study',), ('analysis', 'system'), ('calibration',), ('cli',))
+                     ('study',), ('analysis', 'system'), ('calibration', 'evolution'),
+                     ('cli',))
 #: The ROS adapters: the modules that may import rclpy and the message packages.
 ADAPTERS = {
     'mona_controller.controller_node', 'mona_controller.messages', 'mona_controller.qos',

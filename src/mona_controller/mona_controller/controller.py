@@ -69,6 +69,23 @@ class ControllerParams:
                        doc="at a wall: 'turn-away' turns in place away from it until no beam "
                            "sees it; 'random-turn' turns by U[turn_min, turn_max] in a random "
                            'direction, blind, as after a wait (classic BEECLUST)')
+    network_hidden: int = param(8, unit='neurons', low=1, high=256,
+                                doc="the 'network' kind's hidden layer width "
+                                    '(mona_controller.network)')
+    network_recurrent: bool = param(False,
+                                    doc="the 'network' kind's hidden layer also reads its "
+                                        'own previous values (an Elman net)')
+    network_weights: str = param('', doc="the 'network' kind's weights, an .npz "
+                                         '(mona_controller.network: w1, b1, w2, b2 and wr '
+                                         'if recurrent); absolute, or relative to the '
+                                         "current directory; '' draws them from "
+                                         'network_seed')
+    network_seed: int = param(0, low=0, high=2**32 - 1,
+                              doc="the seed of the 'network' kind's weights when "
+                                  'network_weights is empty (N(0, 1) each)')
+    network_weights_sha256: str = param('', doc='the SHA-256 of network_weights, worked '
+                                                "out on loading (a value given must match "
+                                                "the file's)")
 
     def __post_init__(self) -> None:
         validate(self, 'controller.')
@@ -78,6 +95,9 @@ class ControllerParams:
         if self.turn_min > self.turn_max:
             raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
                                  f'controller.turn_max = {self.turn_max}')
+        if self.kind == 'network' or self.network_weights:
+            from mona_controller.network import check_weights  # it imports this module
+            check_weights(self)
         if self.turn_at == 'speed' and self.speed == 0:
             raise ParameterError("controller.turn_at = 'speed' needs controller.speed > 0 (a "
                                  'robot of speed 0 would never finish a turn)')

@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 #: :func:`register_controller`, or an entry point of :data:`ENTRY_POINTS` in one's own package.
 CONTROLLERS: dict[str, str] = {
     'beeclust': 'mona_controller.controller:SwarmController',
+    'network': 'mona_controller.network:NetworkController',
 }
 #: The entry-point group through which an installed package adds controller kinds
 #: (``name = 'module:Class'``): every process (a study's workers, every node) sees them.

@@ -1,0 +1,174 @@
+"""An evolution design: the net, the optimiser and the episodes every genome is scored on.
+
+A design is a YAML file with one mapping, ``evolve``::
+
+    evolve:
+      config: ../mona_swarm.yaml   # the parameter file every episode starts from (relative
+                                   # to this file; default: the shipped one)
+      seed: 1                      # the run's seed (CMA-ES and the training seeds), >= 1
+      genomes: 16                  # CMA-ES population: genomes per generation
+      generations: 30
+      episodes: 4                  # episodes per genome, on the same seeds for every genome
+                                   # of a generation (fresh seeds each generation)
+      robots: 30                   # N
+      duration: 1000.0             # s per episode
+      sigma: 0.5                   # CMA-ES initial step size (the genome starts at zero)
+      hidden: 8                    # the net: hidden neurons (controller.network_hidden)
+      recurrent: false             # an Elman net (controller.network_recurrent)
+      batch: 32                    # at most this many episodes stepped together per worker
+      held_out: 100                # then: the best genome and BEECLUST on this many held-out
+                                   # seeds (0: none; evolution.compare)
+      compare: [../mona_swarm.yaml, moving_leaks.yaml]   # on these parameter files
+                                   # (relative to this file; default: the design's config)
+
+Every key is checked when the design is loaded: an unknown key or a value out of range is
+refused with a message that names it (:class:`EvolutionError`, exit status 2).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from mona_controller.network import MAX_HIDDEN, genome_size
+from mona_controller.schema import ParameterError
+from swarm_supervisor.config import SwarmConfig, load_config
+
+
+class EvolutionError(ParameterError):
+    """An evolution design is malformed (exit status 2, the message names the key)."""
+
+
+#: Each key of the ``evolve`` mapping: (type, low, high, default); None = no default.
+KEYS: dict[str, tuple[type, float | None, float | None, Any]] = {
+    'config': (str, None, None, ''),
+    'seed': (int, 1, 2**31 - 1, 1),
+    'genomes': (int, 2, 4096, 16),
+    'generations': (int, 1, 100_000, 30),
+    'episodes': (int, 1, 1000, 4),
+    'robots': (int, 1, 10_000, 30),
+    'duration': (float, 1e-3, 1e6, 1000.0),
+    'sigma': (float, 1e-6, 1e3, 0.5),
+    'hidden': (int, 1, MAX_HIDDEN, 8),
+    'recurrent': (bool, None, None, False),
+    'batch': (int, 1, 4096, 32),
+    'held_out': (int, 0, 100_000, 0),
+    'compare': (list, None, None, []),
+}
+#: The keys of the post-evaluation, which leave the evolution itself unchanged.
+AFTERWARDS = ('held_out', 'compare')
+
+
+@dataclasses.dataclass(frozen=True)
+class Design:
+    """A loaded, checked design (:data:`KEYS`); ``base`` is the parameter set it starts from."""
+
+    path: str
+    base: SwarmConfig
+    config: str
+    seed: int
+    genomes: int
+    generations: int
+    episodes: int
+    robots: int
+    duration: float
+    sigma: float
+    hidden: int
+    recurrent: bool
+    batch: int
+    held_out: int
+    compare: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The design's keys and values."""
+        return {key: list(value) if isinstance(value, tuple) else value
+                for key, value in ((key, getattr(self, key)) for key in KEYS)}
+
+    @property
+    def genome_size(self) -> int:
+        """The number of weights CMA-ES searches over."""
+        return genome_size(self.base.mona.ir_count, self.hidden, self.recurrent)
+
+    def digest(self) -> str:
+        """What a resumed run must match: the keys and the base parameters."""
+        design = {k: v for k, v in self.to_dict().items() if k not in AFTERWARDS}
+        return json.dumps({'design': design, 'base': self.base.to_dict()},
+                          sort_keys=True, default=str)
+
+
+def _checked(key: str, value: Any) -> Any:
+    kind, low, high, _ = KEYS[key]
+    name = f'evolve.{key}'
+    if kind is list:
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise EvolutionError(f'{name} = {value!r}: expected a list of parameter files')
+        return value
+    if kind is bool or kind is str:
+        if not isinstance(value, kind):
+            raise EvolutionError(f'{name} = {value!r}: expected '
+                                 + ('true or false' if kind is bool else 'a string'))
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise EvolutionError(f'{name} = {value!r}: expected a number')
+    if kind is int:
+        if isinstance(value, float) and not value.is_integer():
+            raise EvolutionError(f'{name} = {value!r}: expected a whole number')
+        value = int(value)
+    value = kind(value)
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise EvolutionError(f'{name} = {value!r} is out of range: allowed [{low:g}, {high:g}]')
+    return value
+
+
+def design_from_mapping(document: Any, path: str | Path = 'the design') -> Design:
+    """Check a parsed design (``{'evolve': {...}}``); ``config`` is relative to ``path``.
+
+    Raises:
+        EvolutionError: naming the key that is unknown, missing or out of range.
+    """
+    if not isinstance(document, dict) or set(document) != {'evolve'}:
+        raise EvolutionError(f"{path}: expected one mapping, 'evolve'")
+    section = document['evolve'] or {}
+    if not isinstance(section, dict):
+        raise EvolutionError(f'{path}: evolve must be a mapping')
+    unknown = sorted(set(section) - set(KEYS))
+    if unknown:
+        raise EvolutionError(f'{path}: unknown key evolve.{unknown[0]}; known: '
+                             + ', '.join(KEYS))
+    values = {key: _checked(key, section.get(key, default))
+              for key, (_, _, _, default) in KEYS.items()}
+    config = values['config']
+    if config:
+        config = str((Path(path).parent / config).resolve())
+        values['config'] = config
+    try:
+        base = load_config(config or None)
+    except ParameterError as error:
+        raise EvolutionError(f'{path}: evolve.config: {error}') from None
+    compare = [str((Path(path).parent / name).resolve()) for name in values['compare']]
+    for k, name in enumerate(compare):
+        try:
+            load_config(name)
+        except ParameterError as error:
+            raise EvolutionError(f'{path}: evolve.compare[{k}]: {error}') from None
+    values['compare'] = tuple(compare)
+    return Design(path=str(path), base=base, **values)
+
+
+def load_design(path: str | Path) -> Design:
+    """Load and check a design file.
+
+    Raises:
+        EvolutionError: the file is missing, not YAML, or a key is bad (named).
+    """
+    try:
+        document = yaml.safe_load(Path(path).read_text())
+    except OSError as error:
+        raise EvolutionError(f'cannot read {path}: {error.strerror}') from None
+    except yaml.YAMLError as error:
+        raise EvolutionError(f'{path} is not valid YAML: {error}') from None
+    return design_from_mapping(document, path)

@@ -1,0 +1,99 @@
+"""A generation's fitness: every genome on the generation's training seeds, in batches.
+
+A genome becomes a weights file (:func:`~mona_controller.network.save_weights`) and a
+parameter set with ``controller.kind: network``; its fitness is the mean over its episodes of
+the episode's mean cue fraction over time (the metrics' ``mean_cue_fraction`` at every
+sample: lower is better, a cleaner arena). The episodes of all genomes are cut into batches
+of at most ``design.batch`` and run with the batched engine
+(:func:`~swarm_supervisor.engine.runner.run_batch`), in this process or on a pool of
+worker processes; a robot computes the same bits in any batch, so the fitness does not
+depend on how the episodes are cut or where they run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mona_controller.network import save_weights, weights_from_genome
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.engine.runner import run_batch
+from swarm_supervisor.evolution.design import Design
+
+#: The metric a genome is scored on (swarm_metrics.metrics).
+METRIC = 'mean_cue_fraction'
+
+
+def training_seeds(design: Design, generation: int) -> list[int]:
+    """The episode seeds of ``generation`` (the same for all its genomes, fresh each
+    generation), derived from the design's seed alone, so a resumed run draws the same."""
+    rng = np.random.default_rng([design.seed, 0xE70, generation])
+    return [int(seed) for seed in rng.integers(1, 2**31 - 1, design.episodes)]
+
+
+def genome_config(design: Design, weights: str | Path, seed: int) -> SwarmConfig:
+    """The parameter set of one episode of the genome whose weights file is ``weights``."""
+    return design.base.replace(
+        episode={'population': design.robots, 'duration': design.duration, 'seed': seed},
+        controller={'kind': 'network', 'network_hidden': design.hidden,
+                    'network_recurrent': design.recurrent, 'network_weights': str(weights),
+                    'network_weights_sha256': ''})
+
+
+def episode_fitness(metrics: Sequence[dict[str, float]]) -> float:
+    """The mean of :data:`METRIC` over an episode's samples."""
+    return math.fsum(row[METRIC] for row in metrics) / len(metrics)
+
+
+def run_configs(configs: Sequence[SwarmConfig]) -> list[float]:
+    """Each episode's fitness, the episodes stepped together (a worker's task)."""
+    return [episode_fitness(result.metrics) for result in run_batch(configs)]
+
+
+def generation_configs(design: Design, genomes: np.ndarray, generation: int,
+                       folder: Path) -> list[SwarmConfig]:
+    """Every episode of a generation, genome after genome (seeds in order within each),
+    writing each genome's weights into ``folder``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    seeds = training_seeds(design, generation)
+    configs: list[SwarmConfig] = []
+    for i, genome in enumerate(genomes):
+        path = folder / f'genome_{i}.npz'
+        save_weights(path, weights_from_genome(genome, design.base.mona.ir_count,
+                                               design.hidden, design.recurrent))
+        configs.extend(genome_config(design, path, seed) for seed in seeds)
+    return configs
+
+
+def batches(configs: Sequence[SwarmConfig], size: int, jobs: int) -> list[list[SwarmConfig]]:
+    """Cut the episodes into at least ``jobs`` batches (when there are as many) of at most
+    ``size``, in order."""
+    count = max(jobs, math.ceil(len(configs) / size))
+    per = math.ceil(len(configs) / count)
+    return [list(configs[k:k + per]) for k in range(0, len(configs), per)]
+
+
+def run_scores(configs: Sequence[SwarmConfig], size: int, pool: Any | None,
+               jobs: int) -> list[float]:
+    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool``
+    (``jobs`` processes) or in this process."""
+    cut = batches(configs, size, jobs)
+    if pool is None:
+        scores = [run_configs(batch) for batch in cut]
+    else:
+        scores = pool.map(run_configs, cut, chunksize=1)
+    return [score for batch in scores for score in batch]
+
+
+def evaluate(design: Design, genomes: np.ndarray, generation: int, folder: Path,
+             pool: Any | None, jobs: int) -> list[float]:
+    """Each genome's fitness (the mean over its episodes), on ``pool`` (a
+    multiprocessing pool of ``jobs`` processes) or in this process."""
+    flat = run_scores(generation_configs(design, genomes, generation, folder), design.batch,
+                      pool, jobs)
+    per = design.episodes
+    return [math.fsum(flat[i * per:(i + 1) * per]) / per for i in range(len(genomes))]

@@ -1,0 +1,173 @@
+"""The evolution loop: CMA-ES (pycma) over the net's weights, resumable per generation.
+
+Each generation CMA-ES proposes ``genomes`` weight vectors, every one is scored on the
+generation's training seeds (:mod:`swarm_supervisor.evolution.fitness`) and CMA-ES is told
+the scores. pycma draws its samples from numpy's global generator, seeded through its own
+``seed`` option; the loop keeps that generator's state apart (restored before each ``ask``),
+so nothing else in the process moves it. After each generation ``checkpoint.pkl`` is
+replaced atomically (``os.replace``): the pickled optimiser, the generator's state, the
+generation and the rows of ``generations.csv``. A run started on a folder with a checkpoint
+of the same design carries on from it, so the same seed and design give the same run,
+interrupted or not (wall times aside).
+
+Outputs in the folder: ``generations.csv`` (generation, best, mean, worst, sigma, wall_s),
+``fitness.png``, ``best.npz`` (the best genome evaluated so far, as weights), ``design.yaml``
+(the design's checked values) and ``genomes/`` (the current generation's weights files);
+with ``held_out`` > 0, the post-evaluation's compare.csv, compare.json and compare.png
+(:mod:`swarm_supervisor.evolution.compare`).
+"""
+
+from __future__ import annotations
+
+import csv
+import multiprocessing
+import os
+import pickle
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from tqdm import tqdm
+
+from mona_controller.network import save_weights, weights_from_genome
+from swarm_supervisor.evolution.design import Design, EvolutionError
+from swarm_supervisor.evolution.fitness import evaluate
+
+#: The columns of generations.csv.
+COLUMNS = ('generation', 'best', 'mean', 'worst', 'sigma', 'wall_s')
+CHECKPOINT = 'checkpoint.pkl'
+
+
+def new_strategy(design: Design) -> Any:
+    """A seeded CMA-ES with file logging and printing off, its mean at zero weights."""
+    import cma
+
+    options = {'seed': design.seed, 'popsize': design.genomes, 'verb_log': 0,
+               'verbose': -9, 'verb_disp': 0}
+    return cma.CMAEvolutionStrategy(np.zeros(design.genome_size), design.sigma, options)
+
+
+def write_atomically(path: Path, data: bytes) -> None:
+    """Replace ``path`` by ``data`` in one step (a crash leaves the old or the new file)."""
+    tmp = path.with_name(path.name + '.tmp')
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+def load_checkpoint(out: Path, design: Design) -> dict[str, Any] | None:
+    """The checkpoint in ``out`` (None if there is none).
+
+    Raises:
+        EvolutionError: it belongs to another design.
+    """
+    path = out / CHECKPOINT
+    if not path.is_file():
+        return None
+    state = pickle.loads(path.read_bytes())
+    if state['digest'] != design.digest():
+        raise EvolutionError(f'{out} holds an evolution of another design (or base '
+                             'parameters); use another --out')
+    return state
+
+
+def write_csv(out: Path, rows: list[dict[str, float]]) -> None:
+    """generations.csv, every generation so far."""
+    lines = [','.join(COLUMNS)] + [','.join(repr(row[c]) for c in COLUMNS) for row in rows]
+    write_atomically(out / 'generations.csv', ('\n'.join(lines) + '\n').encode())
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    """generations.csv's rows (for tests and reports)."""
+    with path.open() as handle:
+        return list(csv.DictReader(handle))
+
+
+def plot(out: Path, rows: list[dict[str, float]]) -> Path:
+    """fitness.png: best, mean and worst fitness per generation."""
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=(6, 3.5))
+    x = [row['generation'] for row in rows]
+    for column, style in (('best', '-'), ('mean', '--'), ('worst', ':')):
+        axes.plot(x, [row[column] for row in rows], style, label=column)
+    axes.set_xlabel('generation')
+    axes.set_ylabel('mean cue fraction (lower is better)')
+    axes.legend()
+    figure.tight_layout()
+    path = out / 'fitness.png'
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path
+
+
+def save_best(out: Path, design: Design, genome: np.ndarray) -> str:
+    """best.npz from a genome; its SHA-256."""
+    return save_weights(out / 'best.npz', weights_from_genome(
+        genome, design.base.mona.ir_count, design.hidden, design.recurrent))
+
+
+def evolve(design: Design, out: Path, *, jobs: int = 1, shown: bool | None = None,
+           on_checkpoint: Any = None) -> list[dict[str, float]]:
+    """Run (or resume) the evolution of ``design`` in ``out``; the rows of generations.csv.
+
+    ``jobs`` > 1 scores the episodes on that many spawned worker processes; ``shown``
+    shows the progress bar (None: only on a terminal).
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    state = load_checkpoint(out, design)
+    if state is None:
+        strategy = new_strategy(design)
+        state = {'digest': design.digest(), 'strategy': strategy, 'generation': 0,
+                 'random': np.random.get_state(), 'rows': [], 'best': None}
+        (out / 'design.yaml').write_text(yaml.safe_dump({'evolve': design.to_dict()},
+                                                        sort_keys=False))
+    strategy, rows = state['strategy'], state['rows']
+    pool = None
+    if jobs > 1:
+        pool = multiprocessing.get_context('spawn').Pool(jobs)
+    disable = None if shown is None else not shown
+    try:
+        with tqdm(total=design.generations, initial=state['generation'], desc='generations',
+                  unit='gen', disable=disable, file=sys.stderr) as bar:
+            for generation in range(state['generation'], design.generations):
+                started = time.perf_counter()
+                np.random.set_state(state['random'])
+                genomes = np.array(strategy.ask())
+                scores = evaluate(design, genomes, generation, out / 'genomes', pool, jobs)
+                strategy.tell(list(genomes), scores)
+                best = int(np.argmin(scores))
+                if state['best'] is None or scores[best] < state['best'][0]:
+                    state['best'] = (scores[best], genomes[best].copy())
+                rows.append({'generation': generation, 'best': min(scores),
+                             'mean': float(np.mean(scores)), 'worst': max(scores),
+                             'sigma': float(strategy.sigma),
+                             'wall_s': round(time.perf_counter() - started, 3)})
+                state.update(generation=generation + 1, random=np.random.get_state())
+                save_best(out, design, state['best'][1])
+                write_csv(out, rows)
+                write_atomically(out / CHECKPOINT, pickle.dumps(state))
+                bar.update(1)
+                bar.set_postfix(best=f'{state["best"][0]:.4f}')
+                if on_checkpoint is not None:
+                    on_checkpoint(generation)
+        if design.held_out and not (out / 'compare.json').exists():
+            from swarm_supervisor.evolution.compare import compare
+
+            compare(design, out, pool, jobs)
+        if pool is not None:
+            pool.close()
+    except BaseException:
+        if pool is not None:
+            pool.terminate()
+        raise
+    finally:
+        if pool is not None:
+            pool.join()
+    plot(out, rows)
+    return rows

@@ -1,0 +1,105 @@
+"""``mona-swarm evolve``: the same seed and design give the same run, interrupted (SIGINT)
+and resumed or not; a bad design is refused naming the key; the fitness does not depend on
+how the episodes are batched."""
+
+import dataclasses
+import json
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import yaml
+
+from swarm_supervisor.evolution import load_design
+from swarm_supervisor.evolution.fitness import evaluate
+from swarm_supervisor.evolution.run import COLUMNS, read_csv
+
+TINY = {'seed': 3, 'genomes': 4, 'generations': 3, 'episodes': 1, 'robots': 5,
+        'duration': 60.0, 'hidden': 3}
+
+
+def write_design(path, **changes):
+    path.write_text(yaml.safe_dump({'evolve': {**TINY, **changes}}))
+    return path
+
+
+def command(design, out):
+    return [sys.executable, '-m', 'swarm_supervisor.cli', 'evolve', str(design), '--out',
+            str(out), '--no-progress']
+
+
+def without_wall_time(out):
+    return [{c: row[c] for c in COLUMNS if c != 'wall_s'}
+            for row in read_csv(out / 'generations.csv')]
+
+
+def test_an_interrupted_and_resumed_evolution_equals_an_uninterrupted_one(tmp_path):
+    design = write_design(tmp_path / 'tiny.yaml')
+    whole, parts = tmp_path / 'whole', tmp_path / 'parts'
+    subprocess.run(command(design, whole), check=True, capture_output=True)
+    process = subprocess.Popen(command(design, parts), stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (parts / 'checkpoint.pkl').exists() and time.monotonic() < deadline:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert 'interrupted' in err
+    done = len(read_csv(parts / 'generations.csv'))
+    assert 1 <= done < TINY['generations']
+    resumed = subprocess.run(command(design, parts), capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    assert without_wall_time(parts) == without_wall_time(whole)
+    assert len(without_wall_time(whole)) == TINY['generations']
+    assert (parts / 'best.npz').read_bytes() == (whole / 'best.npz').read_bytes()
+    assert (whole / 'fitness.png').stat().st_size > 0
+    # Another design is refused on a folder that holds this one's run.
+    other = write_design(tmp_path / 'other.yaml', seed=4)
+    refused = subprocess.run(command(other, parts), capture_output=True, text=True)
+    assert refused.returncode == 2 and 'another design' in refused.stderr
+
+
+@pytest.mark.parametrize(('changes', 'message'), [
+    ({'populaton': 3}, 'unknown key evolve.populaton'),
+    ({'genomes': 1}, r'evolve.genomes = 1 is out of range'),
+    ({'hidden': 0}, r'evolve.hidden = 0 is out of range'),
+    ({'duration': 'long'}, r"evolve.duration = 'long': expected a number"),
+    ({'config': 'missing.yaml'}, r'evolve.config: cannot read'),
+])
+def test_a_bad_design_is_refused_with_exit_2_naming_the_key(tmp_path, changes, message):
+    design = write_design(tmp_path / 'bad.yaml', **changes)
+    result = subprocess.run(command(design, tmp_path / 'out'), capture_output=True,
+                            text=True)
+    assert result.returncode == 2
+    assert re.search(message, result.stderr), result.stderr
+    assert not (tmp_path / 'out').exists()
+
+
+def test_the_fitness_does_not_depend_on_the_batches(tmp_path):
+    design = load_design(write_design(tmp_path / 'tiny.yaml', episodes=2, duration=20.0))
+    genomes = np.random.default_rng(0).normal(size=(3, design.genome_size))
+    one = evaluate(dataclasses.replace(design, batch=1), genomes, 0, tmp_path / 'a', None, 1)
+    six = evaluate(dataclasses.replace(design, batch=6), genomes, 0, tmp_path / 'b', None, 1)
+    assert one == six and len(set(one)) == 3
+
+
+def test_the_post_evaluation_pairs_the_best_genome_with_beeclust_on_held_out_seeds(tmp_path):
+    from swarm_supervisor.evolution import evolve
+    from swarm_supervisor.evolution.compare import held_out_seeds
+    from swarm_supervisor.evolution.fitness import training_seeds
+
+    design = load_design(write_design(tmp_path / 'tiny.yaml', generations=1, duration=20.0,
+                                      held_out=6))
+    seeds = held_out_seeds(design)
+    assert len(set(seeds)) == 6 and not set(seeds) & set(training_seeds(design, 0))
+    evolve(design, tmp_path / 'out', shown=False)
+    summary = json.loads((tmp_path / 'out' / 'compare.json').read_text())
+    assert list(summary) == ['default'] and summary['default']['episodes'] == 6
+    rows = read_csv(tmp_path / 'out' / 'compare.csv')
+    assert [int(row['seed']) for row in rows] == seeds
+    assert (tmp_path / 'out' / 'compare.png').stat().st_size > 0

@@ -1,0 +1,165 @@
+"""The network controller: its kernel equals the plain-Python reference bit for bit, a robot
+computes the same commands alone and in batches of any size, and its weights parameters are
+checked with errors naming the key."""
+
+import dataclasses
+import hashlib
+
+import numpy as np
+import pytest
+
+from mona_controller.controller import ControllerParams
+from mona_controller.controllers import make_controller
+from mona_controller.mona import MonaParams
+from mona_controller.network import (
+    MAX_HIDDEN,
+    NetworkController,
+    genome_size,
+    net_weights,
+    reference_forward,
+    save_weights,
+    shapes,
+    weights_from_genome,
+)
+from mona_controller.reference import random_readings
+from mona_controller.schema import ParameterError
+
+K = MonaParams().ir_count
+
+
+def weights_file(tmp_path, hidden=4, recurrent=False, seed=0, name='w.npz', scale=1.0):
+    rng = np.random.default_rng(seed)
+    size = genome_size(K, hidden, recurrent)
+    weights = weights_from_genome(rng.normal(0.0, scale, size), K, hidden, recurrent)
+    path = tmp_path / name
+    save_weights(path, weights)
+    return path
+
+
+@pytest.mark.parametrize('recurrent', [False, True])
+@pytest.mark.parametrize('seed', [1, 2])
+def test_the_kernel_equals_the_plain_python_reference_bit_for_bit(tmp_path, recurrent, seed):
+    hidden = 3 + 2 * seed
+    params = ControllerParams(kind='network', network_hidden=hidden,
+                              network_recurrent=recurrent,
+                              network_weights=str(weights_file(tmp_path, hidden, recurrent,
+                                                               seed, scale=0.7)))
+    mona = MonaParams(max_wheel_command=7.0, ir_range=0.05)
+    n = 9
+    controller = make_controller(params, mona, range(n))
+    arrays = net_weights(params, mona)
+    previous = [[0.0] * 3 for _ in range(n)]
+    context = [[0.0] * MAX_HIDDEN for _ in range(n)]
+    rng = np.random.default_rng(seed)
+    cleaned = set()
+    for step in range(200):
+        ground, ranges, is_robot = random_readings(rng, n, K)
+        command = controller.step(ground, ranges, is_robot, step * 0.25)
+        for i in range(n):
+            left, right, clean = reference_forward(
+                ground[i].tolist(), ranges[i].tolist(), is_robot[i].tolist(), arrays,
+                mona.ir_range, mona.max_wheel_command, previous[i], context[i])
+            assert command.wheels[i].tobytes() == np.array([left, right]).tobytes(), (step, i)
+            assert bool(command.cleaner[i]) == clean
+            assert controller.previous[i].tobytes() == np.array(previous[i]).tobytes()
+            assert controller.context[i].tobytes() == np.array(context[i]).tobytes()
+            cleaned.add(command.wheels[i].tobytes())
+        assert controller.state.tolist() == [2 if c else 0 for c in command.cleaner]
+    assert len(cleaned) > 100  # the commands vary with the readings
+
+
+@pytest.mark.parametrize('recurrent', [False, True])
+def test_a_robot_alone_and_in_batches_of_1_5_and_64_gives_the_same_commands(tmp_path,
+                                                                          recurrent):
+    # Parts with different nets (files and seeds), widths and Monas, as a batch of episodes.
+    paths = [weights_file(tmp_path, 2 + k % 5, recurrent, k, f'w{k}.npz') for k in range(4)]
+    def params_of(k):
+        if k % 5 == 4:
+            return ControllerParams(kind='network', network_seed=k, network_hidden=6,
+                                    network_recurrent=recurrent)
+        return ControllerParams(kind='network', network_hidden=2 + k % 5,
+                                network_recurrent=recurrent, network_weights=str(paths[k % 5]))
+    monas = [MonaParams(), MonaParams(max_wheel_command=6.0, ir_range=0.04)]
+    sizes = [1, 5, 64]
+    total = sum(sizes)
+    lone = [make_controller(params_of(i % 5), monas[i % 2], [i]) for i in range(total)]
+    parts = [make_controller(params_of(i % 5), monas[i % 2], [i]) for i in range(total)]
+    batches, start = [], 0
+    for size in sizes:
+        batches.append(NetworkController.merge(parts[start:start + size]))
+        start += size
+    rng = np.random.default_rng(3)
+    for step in range(150):
+        ground, ranges, is_robot = random_readings(rng, total, K)
+        alone = [c.step(ground[i:i + 1], ranges[i:i + 1], is_robot[i:i + 1], 0.0)
+                 for i, c in enumerate(lone)]
+        start = 0
+        for size, batch in zip(sizes, batches):
+            rows = slice(start, start + size)
+            command = batch.step(ground[rows], ranges[rows], is_robot[rows],
+                                 np.zeros(size))
+            for j in range(size):
+                own = alone[start + j]
+                assert own.wheels.tobytes() == command.wheels[j:j + 1].tobytes(), (step, size)
+                assert own.cleaner.tobytes() == command.cleaner[j:j + 1].tobytes()
+            start += size
+
+
+def test_the_weights_file_is_resolved_hashed_and_written_the_same_each_time(tmp_path,
+                                                                          monkeypatch):
+    path = weights_file(tmp_path)
+    first = path.read_bytes()
+    path.unlink()
+    weights_file(tmp_path)
+    assert path.read_bytes() == first  # fixed zip timestamps
+    monkeypatch.chdir(tmp_path)
+    params = ControllerParams(kind='network', network_hidden=4, network_weights='w.npz')
+    assert params.network_weights == str(path)
+    assert params.network_weights_sha256 == hashlib.sha256(first).hexdigest()
+    # A copy of the section (to_mapping / from_mapping, a worker, a node) checks the hash.
+    assert dataclasses.replace(params) == params
+    assert ControllerParams().network_weights_sha256 == ''
+
+
+def test_bad_weights_are_refused_naming_the_key(tmp_path):
+    def refused(match, **fields):
+        with pytest.raises(ParameterError, match=match):
+            make_controller(ControllerParams(kind='network', **fields), MonaParams(), [0])
+    refused(r"controller.network_weights = '.*nowhere.npz': cannot read",
+            network_weights=str(tmp_path / 'nowhere.npz'))
+    path = weights_file(tmp_path, hidden=4)
+    refused(r'network_weights = .*: w1 is \[4, 15\], a net of network_hidden = 5 needs '
+            r'\[5, 15\]', network_weights=str(path), network_hidden=5)
+    refused('lacks wr', network_weights=str(path), network_hidden=4, network_recurrent=True)
+    recurrent = weights_file(tmp_path, hidden=4, recurrent=True, name='r.npz')
+    refused('holds wr, not part of a net', network_weights=str(recurrent), network_hidden=4)
+    refused('network_weights_sha256', network_weights=str(path), network_hidden=4,
+            network_weights_sha256='0' * 64)
+    with pytest.raises(ParameterError, match='w1 has 15 inputs, a Mona with 3 IR sensors'):
+        make_controller(ControllerParams(kind='network', network_hidden=4,
+                                         network_weights=str(path)), MonaParams(ir_count=3),
+                        [0])
+    junk = tmp_path / 'junk.npz'
+    junk.write_bytes(b'not a zip')
+    refused('not an .npz', network_weights=str(junk))
+    with pytest.raises(ValueError, match='a genome of 3 weights'):
+        weights_from_genome([0.0] * 3, K, 4, False)
+    assert genome_size(K, 4, True) == sum(np.prod(s) for s in shapes(15, 4, True).values())
+
+
+def test_the_shipped_evolved_controller_fits_the_design_that_made_it(monkeypatch):
+    from pathlib import Path
+
+    from swarm_supervisor.config import load_config
+    from swarm_supervisor.evolution import load_design
+
+    root = Path(__file__).resolve().parents[2]
+    monkeypatch.chdir(root)  # its weights path is relative to the repository root
+    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / 'evolved.yaml')
+    design = load_design(root / 'ros_ws' / 'config' / 'designs' / 'evolve.yaml')
+    assert config.controller.kind == 'network'
+    assert config.controller.network_hidden == design.hidden
+    assert config.controller.network_recurrent == design.recurrent
+    arrays = net_weights(config.controller, config.mona)
+    assert sum(a.size for a in arrays.values()) == design.genome_size
+    make_controller(config.controller, config.mona, range(3))
