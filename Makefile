@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint typecheck bench sensitivity clean
+.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware
 
 venv: $(VENV)/.installed
 
@@ -35,6 +35,25 @@ typecheck: venv
 sensitivity: venv
 	$(VENV)/bin/mona-swarm study --config ros_ws/config/designs/sensitivity.yaml \
 		--out results/sensitivity
+
+# The firmware's toolchain and simulator (docs/link.md), from Debian: quick when present; if
+# apt-get fails, the firmware tests skip naming the missing tool (make test goes on).
+FIRMWARE_TOOLS := gcc-avr avr-libc simavr libsimavr-dev libsimavrparts1 libelf-dev
+firmware-tools:
+	@missing=$$(for p in $(FIRMWARE_TOOLS); do \
+		dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; \
+	done); \
+	if [ -n "$$missing" ]; then \
+		echo "firmware-tools: installing $$missing"; \
+		{ apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1 || \
+		  { apt-get update -qq >/dev/null 2>&1 && \
+		    apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
+		echo "firmware-tools: apt-get failed; the firmware tests will skip"; \
+	fi
+
+# The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex)
+firmware: firmware-tools
+	$(MAKE) -C firmware/mona
 
 bench: venv
 	$(PY) bench/bench_embedded.py
