@@ -113,7 +113,7 @@ class Decoder:
     def flush(self) -> list[Frame]:
         """End of stream: the frames still whole in the buffer; a partial frame left over is
         counted truncated (once: start bytes inside it are garbage), and the buffer emptied."""
-        found = []
+        found: list[Frame] = []
         truncated = False
         while True:
             found.extend(self.feed(b''))
