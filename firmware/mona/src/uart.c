@@ -18,13 +18,14 @@ static volatile uint8_t rx_head, rx_tail, tx_head, tx_tail, overruns;
 
 void uart_init(void)
 {
-    UBRR0H = UBRRH_VALUE;
-    UBRR0L = UBRRL_VALUE;
+    /* U2X before UBRR: simavr computes the bit time when UBRR is written */
 #if USE_2X
     UCSR0A = _BV(U2X0);
 #else
     UCSR0A = 0;
 #endif
+    UBRR0H = UBRRH_VALUE;
+    UBRR0L = UBRRL_VALUE;
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
     UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
