@@ -46,7 +46,7 @@ static avr_cycle_count_t offset;  /* cycles run before the last reset */
 static uint8_t queue[4096];
 static size_t queued, delivered;
 static avr_irq_t *uart_in;
-static int enc_left, enc_right, enc_period, enc_level[2];
+static int enc_left, enc_right, enc_period, enc_level[2] = {1, 1};
 static int last[5] = {-1, -1, -1, -1, -1};
 
 static unsigned long long now(void)
@@ -74,6 +74,20 @@ static avr_cycle_count_t feed(avr_t *a, avr_cycle_count_t when, void *param)
     return when + BYTE_CYCLES;
 }
 
+/* Drives the encoder pins (PD2, PD3) to enc_level, and tells simavr they are driven from
+ * outside: else a write to PORTD (the direction bits) re-applies the pull-ups to them, a
+ * false edge for the firmware's interrupts. */
+static void drive_encoders(avr_t *a)
+{
+    avr_ioport_external_t external = {
+        .name = 'D', .mask = 0x0C,
+        .value = (unsigned long)((enc_level[0] << 2) | (enc_level[1] << 3))};
+    avr_ioctl(a, AVR_IOCTL_IOPORT_SET_EXTERNAL('D'), &external);
+    for (int side = 0; side < 2; side++)
+        avr_raise_irq(avr_io_getirq(a, AVR_IOCTL_IOPORT_GETIRQ('D'), 2 + side),
+                      (uint32_t)enc_level[side]);
+}
+
 static avr_cycle_count_t edge(avr_t *a, avr_cycle_count_t when, void *param)
 {
     (void)param;
@@ -82,8 +96,7 @@ static avr_cycle_count_t edge(avr_t *a, avr_cycle_count_t when, void *param)
     for (int side = 0; side < 2; side++) {
         if (*counts[side] > 0) {
             enc_level[side] ^= 1;
-            avr_raise_irq(avr_io_getirq(a, AVR_IOCTL_IOPORT_GETIRQ('D'), 2 + side),
-                          (uint32_t)enc_level[side]);
+            drive_encoders(a);
             more |= --*counts[side] > 0;
         }
     }
@@ -158,6 +171,7 @@ int main(int argc, char **argv)
     uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
                             uart_out, NULL);
+    drive_encoders(avr);  /* idle high, as the pull-ups leave them */
     for (int ch = 0; ch < 8; ch++)  /* nothing seen by the IR: the pin at AVcc */
         avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch), 3300);
 
