@@ -22,8 +22,7 @@ REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / 'firmware'
 CYCLES_PER_MS = 8000
 #: What building needs, and the Debian package that has it.
-TOOLS = {'avr-gcc': 'gcc-avr', 'avr-objcopy': 'binutils-avr', 'cc': 'gcc', 'make': 'make',
-         'pkg-config': 'pkg-config'}
+TOOLS = {'avr-gcc': 'gcc-avr', 'avr-objcopy': 'binutils-avr', 'cc': 'gcc', 'make': 'make'}
 FILES = {Path('/usr/lib/avr/include/avr/io.h'): 'avr-libc',
          Path('/usr/include/simavr/sim_avr.h'): 'libsimavr-dev',
          Path('/usr/include/libelf.h'): 'libelf-dev'}
