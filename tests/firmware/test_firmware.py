@@ -4,6 +4,8 @@ nonce across a reset, telemetry that mona_controller.link decodes. Times are sim
 
 from __future__ import annotations
 
+import random
+
 import pytest
 
 from mona_controller.link.frame import Frame
@@ -140,3 +142,34 @@ def test_commands_140_ms_apart_keep_the_wheels_turning(mona):
         mona.command(-400, 400)
         mona.run(140)
     assert all(state[1] == pwm(400) for state in mona.wheels[2:]), mona.wheels
+
+
+@pytest.mark.parametrize('seed', [22, 23, 24, 25])
+def test_the_firmware_resynchronises_after_garbage(mona, seed):
+    # Garbage, start bytes among it, between valid frames: every valid command is applied
+    rng = random.Random(seed)
+    stream = b''
+    for seq in range(1, 21):
+        garbage = bytes(rng.choice([0xA5, rng.randrange(256)]) for _ in range(rng.randrange(12)))
+        frame = Frame(1, seq, mona.nonce, COMMAND, Command(seq * 40, -seq * 40).encode())
+        stream += garbage + frame.encode()
+    # a final valid frame flushes any fake start still waiting for its bytes
+    stream += Frame(1, 21, mona.nonce, COMMAND, Command(-250, 250).encode()).encode()
+    mona.send(stream)
+    mona.run(200)
+    assert mona.reports()[-1].ack == 21
+    assert mona.outputs[:4] == (pwm(-250), 1, pwm(250), 0)
+    applied = {state[1] for state in mona.wheels}
+    assert {pwm(seq * 40) for seq in range(1, 21)} <= applied
+
+
+def test_back_to_back_commands_are_all_applied_without_overrun(mona):
+    # 60 frames with no gap (900 bytes, 170 ms of line) while telemetry goes out
+    frames = b''.join(Frame(1, seq, mona.nonce, COMMAND, Command(seq, seq).encode()).encode()
+                      for seq in range(1, 61))
+    mona.send(frames)
+    mona.run(250)
+    last = mona.reports()[-1]
+    assert (last.ack, last.rx_rejected) == (60, 0)
+    lefts = [state[1] for state in mona.wheels[1:]]
+    assert lefts == sorted(lefts) and lefts[-1] == pwm(60)

@@ -40,6 +40,14 @@ static void resync(void)
     memmove(frame, frame + i, have);
 }
 
+/* Drops a frame that was handled, keeping the bytes after it (found by a resync: they may
+ * hold the next frame) */
+static void consume(uint8_t total)
+{
+    have -= total;
+    memmove(frame, frame + total, have);
+}
+
 static void reject(void)
 {
     rejected++;
@@ -72,8 +80,8 @@ static uint8_t settle(link_command_t *out)
         if (kind != LINK_COMMAND || len != LINK_COMMAND_SIZE) {
             if (kind != LINK_TELEMETRY)  /* another robot's telemetry on a shared bus: fine */
                 rejected++;
-            have = 0;
-            return 0;
+            consume(total);
+            continue;
         }
         out->robot = frame[2];
         out->seq = get16(frame + 3);
@@ -81,7 +89,7 @@ static uint8_t settle(link_command_t *out)
         out->left = (int16_t)get16(frame + 8);
         out->right = (int16_t)get16(frame + 10);
         out->flags = frame[12];
-        have = 0;
+        consume(total);
         return 1;
     }
     return 0;
@@ -92,6 +100,11 @@ uint8_t link_receive(uint8_t byte, link_command_t *out)
     if (have == 0 && byte != LINK_START)
         return 0;  /* between frames */
     frame[have++] = byte;
+    return settle(out);
+}
+
+uint8_t link_next(link_command_t *out)
+{
     return settle(out);
 }
 

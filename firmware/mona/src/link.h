@@ -33,6 +33,9 @@ typedef struct {
 uint16_t link_crc(const uint8_t *data, uint8_t n);
 /* Feeds one received byte; 1 when it completes a valid command frame (copied to *out). */
 uint8_t link_receive(uint8_t byte, link_command_t *out);
+/* 1 while the bytes already held complete another command frame (after a resync one byte
+ * can complete two): call it after each command link_receive returned, until 0. */
+uint8_t link_next(link_command_t *out);
 uint8_t link_rejected(void);  /* frames rejected (bad CRC, length or type), wrapping */
 /* Encodes a telemetry frame into buf (LINK_HEADER + LINK_TELEMETRY_SIZE + 2 bytes). */
 uint8_t link_telemetry(uint8_t *buf, uint8_t robot, uint16_t seq, uint16_t nonce,

@@ -78,9 +78,13 @@ int main(void)
     link_command_t command;
     for (;;) {
         int16_t byte;
-        while ((byte = uart_read()) >= 0)
-            if (link_receive((uint8_t)byte, &command))
+        while ((byte = uart_read()) >= 0) {
+            if (!link_receive((uint8_t)byte, &command))
+                continue;
+            do
                 apply(&command);
+            while (link_next(&command));
+        }
         uint16_t now = clock_ms();
         /* "> WATCHDOG_MS" ticks: at least WATCHDOG_MS whole milliseconds have passed */
         if (!stopped && (uint16_t)(now - last_command_ms) > WATCHDOG_MS) {
