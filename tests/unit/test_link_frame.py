@@ -152,3 +152,20 @@ def test_payload_values_are_checked():
         Telemetry.decode(Telemetry((1024, 0, 0, 0, 0), 0, 0, 0, 0, 0, 0).encode())
     with pytest.raises(PayloadError):
         Command.decode(b'\x00')
+
+
+@given(frames=st.lists(commands.map(lambda c: Frame(1, 0, 0, COMMAND, c.encode())),
+                       min_size=1, max_size=6),
+       garbage=st.lists(st.lists(st.sampled_from([START, 0x00, 0x05, 0x14, 0x20, 0xFF]) |
+                                 st.integers(0, 255), max_size=14).map(bytes),
+                        min_size=7, max_size=7),
+       cut=st.integers(1, 40))
+def test_start_bytes_in_the_garbage_never_hide_a_frame(frames, garbage, cut):
+    # A fake start byte whose length spans the next real frame: resynchronised inside it
+    stream = b''.join(g + f.encode() for g, f in zip(garbage, frames)) + garbage[-1]
+    decoder = Decoder()
+    found = []
+    for at in range(0, len(stream), cut):
+        found.extend(decoder.feed(stream[at:at + cut]))
+    found.extend(decoder.flush())
+    assert found == frames
