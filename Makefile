@@ -58,12 +58,16 @@ firmware-tools:
 	    apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
 	echo "firmware-tools: apt-get failed; the firmware tests will skip"
 
-# The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex)
+# The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex) and its simavr host
+# (firmware/sim/monasim); docs/link.md
 firmware: firmware-tools
 	$(MAKE) -C firmware/mona
+	$(MAKE) -C firmware/sim
 
 bench: venv
 	$(PY) bench/bench_embedded.py
 
 clean:
 	rm -rf $(VENV) results .pytest_cache
+	-$(MAKE) -s -C firmware/mona clean
+	-$(MAKE) -s -C firmware/sim clean
