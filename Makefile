@@ -38,24 +38,27 @@ sensitivity: venv
 		--out results/sensitivity
 
 # The firmware's toolchain and simulator (docs/link.md), from Debian (the firmware tests need
-# them; nothing installed by hand survives to the next machine). Quick when present (dpkg-query
-# only, 0.2 s) and soft: without root, dpkg or apt-get's success it only says so, and the
-# firmware tests skip naming the missing tool, so make test goes on.
+# them; nothing installed by hand survives to the next machine). Quick when present
+# (dpkg-query only, 0.1 s) and soft: without dpkg, root (or sudo -n) or apt-get's success it
+# only says so, and the firmware tests skip naming the missing tool, so make test goes on.
 FIRMWARE_TOOLS := gcc-avr avr-libc simavr libsimavr-dev libsimavrparts1 libelf-dev pkg-config
 firmware-tools:
-	@command -v dpkg-query >/dev/null || { echo "firmware-tools: no dpkg; install $(FIRMWARE_TOOLS) by hand"; exit 0; }; \
+	@command -v dpkg-query >/dev/null || \
+		{ echo "firmware-tools: no dpkg; install $(FIRMWARE_TOOLS) by hand"; exit 0; }; \
 	missing=$$(for p in $(FIRMWARE_TOOLS); do \
 		dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; \
 	done); \
 	missing=$$(echo $$missing); \
 	if [ -z "$$missing" ]; then exit 0; fi; \
-	if [ "$$(id -u)" != 0 ]; then \
-		echo "firmware-tools: missing $$missing (not root: the firmware tests will skip)"; exit 0; \
+	if [ "$$(id -u)" = 0 ]; then sudo=; \
+	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then sudo='sudo -n'; \
+	else echo "firmware-tools: missing $$missing (not root: the firmware tests will skip)"; exit 0; \
 	fi; \
+	apt="$$sudo env DEBIAN_FRONTEND=noninteractive apt-get"; \
 	echo "firmware-tools: apt-get install $$missing"; \
-	{ apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1 || \
-	  { apt-get update -qq >/dev/null 2>&1 && \
-	    apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
+	{ $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1 || \
+	  { $$apt update -qq >/dev/null 2>&1 && \
+	    $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
 	echo "firmware-tools: apt-get failed; the firmware tests will skip"
 
 # The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex) and its simavr host
