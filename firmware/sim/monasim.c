@@ -12,12 +12,15 @@
  *   U CYCLE HEX                               a byte the firmware transmitted
  *   R CYCLE                                   the last queued byte reached the receiver
  *   T CYCLE                                   a command is done
+ * Or, with --pty SECONDS: run in real time for SECONDS, the UART bridged to a pseudo-terminal
+ * (simavr's uart_pty part; "P <path>" on stdout names it), W events as above; stdin unused.
  * The wheel outputs are read from Timer1's OCR1A/OCR1B (with COM1x1 connecting them to the
  * pins, and the pins' DDR set as outputs) and PORTD's direction bits: register level, not a
  * measured waveform. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <avr_adc.h>
 #include <avr_ioport.h>
@@ -25,6 +28,7 @@
 #include <sim_avr.h>
 #include <sim_elf.h>
 #include <sim_irq.h>
+#include <uart_pty.h>
 
 #define F_CPU 8000000UL
 #define BAUD 57600UL
@@ -143,10 +147,52 @@ static void start_timers(void)
         avr_cycle_timer_register(avr, 1, edge, NULL);
 }
 
+static double wall_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+/* Real time, the UART on a pty: the AVR runs no faster than the wall clock (it would run
+ * about 12 times faster), checked every simulated millisecond. */
+static int run_pty(double seconds)
+{
+    static uart_pty_t pty;
+    uart_pty_init(avr, &pty);
+    uart_pty_connect(&pty, '0');
+    printf("P %s\n", pty.port[0].slavename);
+    double start = wall_seconds();
+    avr_cycle_count_t step = F_CPU / 1000;
+    while ((double)avr->cycle < seconds * F_CPU) {
+        avr_cycle_count_t end = avr->cycle + step;
+        while (avr->cycle < end) {
+            int state = avr_run(avr);
+            watch_outputs();
+            if (state == cpu_Done || state == cpu_Crashed) {
+                printf("E %llu crashed\n", now());
+                uart_pty_stop(&pty);
+                return 1;
+            }
+        }
+        double ahead = (double)avr->cycle / F_CPU - (wall_seconds() - start);
+        if (ahead > 0) {
+            struct timespec nap = {0, (long)(ahead * 1e9)};
+            nanosleep(&nap, NULL);
+        }
+    }
+    uart_pty_stop(&pty);
+    printf("T %llu\n", now());
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s mona.elf < commands\n", argv[0]);
+    double pty_seconds = 0;
+    if (argc == 4 && !strcmp(argv[2], "--pty"))
+        pty_seconds = atof(argv[3]);
+    else if (argc != 2) {
+        fprintf(stderr, "usage: %s mona.elf [--pty SECONDS] < commands\n", argv[0]);
         return 2;
     }
     elf_firmware_t firmware;
@@ -175,8 +221,10 @@ int main(int argc, char **argv)
     for (int ch = 0; ch < 8; ch++)  /* nothing seen by the IR: the pin at AVcc */
         avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch), 3300);
 
-    char line[16384];
     setvbuf(stdout, NULL, _IOLBF, 0);
+    if (pty_seconds > 0)
+        return run_pty(pty_seconds);
+    char line[16384];
     while (fgets(line, sizeof line, stdin)) {
         char word[16] = "";
         sscanf(line, "%15s", word);
