@@ -10,6 +10,7 @@ from mona_controller.link.crc import CHECK, crc16
 from mona_controller.link.frame import (
     BAD_CRC,
     BAD_LENGTH,
+    BAD_START,
     BAD_TYPE,
     START,
     TRUNCATED,
@@ -169,3 +170,12 @@ def test_start_bytes_in_the_garbage_never_hide_a_frame(frames, garbage, cut):
         found.extend(decoder.feed(stream[at:at + cut]))
     found.extend(decoder.flush())
     assert found == frames
+
+
+def test_check_names_what_is_wrong_with_a_datagram():
+    good = command_frame().encode()
+    for data, reason in [(b'\x00' + good[1:], BAD_START), (good[:5], TRUNCATED),
+                         (good + b'\x00', BAD_LENGTH)]:
+        with pytest.raises(FrameError) as error:
+            check(data)
+        assert error.value.reason == reason

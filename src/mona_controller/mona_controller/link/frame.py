@@ -29,6 +29,9 @@ BROADCAST = 0xFF
 #: Why the decoder rejected a frame.
 BAD_CRC, TRUNCATED, BAD_LENGTH, BAD_TYPE = 'bad_crc', 'truncated', 'bad_length', 'bad_type'
 REASONS = (BAD_CRC, TRUNCATED, BAD_LENGTH, BAD_TYPE)
+#: Why :func:`check` refused bytes that do not begin with the start byte (the decoder skips
+#: those as garbage instead).
+BAD_START = 'bad_start'
 
 
 class FrameError(ValueError):
@@ -68,7 +71,9 @@ def size(data: bytes | bytearray) -> int | None:
 
 def check(data: bytes | bytearray) -> Frame:
     """The frame that is exactly ``data`` (FrameError naming the reason if it is not one)."""
-    if len(data) < HEADER.size or data[0] != START:
+    if data[:1] and data[0] != START:
+        raise FrameError(BAD_START, f'first byte {data[0]:#04x}, not {START:#04x}')
+    if len(data) < HEADER.size:
         raise FrameError(TRUNCATED, f'{len(data)} bytes, no complete header')
     start, length, robot, seq, nonce, kind = HEADER.unpack_from(data)
     if length > MAX_PAYLOAD:
