@@ -1,13 +1,14 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
-#   make test   set up the venv, lint (ruff), type-check the pure cores (mypy), run the tests
+#   make test   set up the venv, lint (ruff), type-check the pure cores (mypy), install the
+#               firmware's Debian tools if missing (make firmware-tools), run the tests
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint typecheck bench sensitivity clean
+.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware
 
 venv: $(VENV)/.installed
 
@@ -21,7 +22,7 @@ $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 run: venv
 	$(VENV)/bin/mona-swarm study --out $(STUDY_OUT)
 
-test: lint typecheck
+test: lint typecheck firmware-tools
 	$(PY) -m pytest
 
 lint: venv
@@ -36,8 +37,40 @@ sensitivity: venv
 	$(VENV)/bin/mona-swarm study --config ros_ws/config/designs/sensitivity.yaml \
 		--out results/sensitivity
 
+# The firmware's toolchain and simulator (docs/link.md), from Debian (the firmware tests need
+# them; nothing installed by hand survives to the next machine). Quick when present
+# (dpkg-query only, 0.1 s) and soft: without dpkg, root (or sudo -n) or apt-get's success it
+# only says so, and the firmware tests skip naming the missing tool, so make test goes on.
+FIRMWARE_TOOLS := gcc-avr avr-libc simavr libsimavr-dev libsimavrparts1 libelf-dev pkg-config
+firmware-tools:
+	@command -v dpkg-query >/dev/null || \
+		{ echo "firmware-tools: no dpkg; install $(FIRMWARE_TOOLS) by hand"; exit 0; }; \
+	missing=$$(for p in $(FIRMWARE_TOOLS); do \
+		dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; \
+	done); \
+	missing=$$(echo $$missing); \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ]; then sudo=; \
+	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then sudo='sudo -n'; \
+	else echo "firmware-tools: missing $$missing (not root: the firmware tests will skip)"; exit 0; \
+	fi; \
+	apt="$$sudo env DEBIAN_FRONTEND=noninteractive apt-get"; \
+	echo "firmware-tools: apt-get install $$missing"; \
+	{ $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1 || \
+	  { $$apt update -qq >/dev/null 2>&1 && \
+	    $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
+	echo "firmware-tools: apt-get failed; the firmware tests will skip"
+
+# The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex) and its simavr host
+# (firmware/sim/monasim); docs/link.md
+firmware: firmware-tools
+	$(MAKE) -C firmware/mona
+	$(MAKE) -C firmware/sim
+
 bench: venv
 	$(PY) bench/bench_embedded.py
 
 clean:
 	rm -rf $(VENV) results .pytest_cache
+	-$(MAKE) -s -C firmware/mona clean
+	-$(MAKE) -s -C firmware/sim clean

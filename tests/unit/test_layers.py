@@ -36,6 +36,11 @@ ADAPTERS = {
     'swarm_supervisor.system.supervisor_node', 'swarm_supervisor.system.live_node',
     'swarm_supervisor.system.replay',
 }
+#: The link to real robots (docs/link.md): pure, shared by a driver and its tests, so it
+#: imports nothing of ours outside itself (the frame codec runs where no model does).
+LINK = {'mona_controller.link', 'mona_controller.link.crc', 'mona_controller.link.frame',
+        'mona_controller.link.payloads', 'mona_controller.link.sequence',
+        'mona_controller.link.transport'}
 #: Top-level modules of ROS itself (and the message packages, by their suffix).
 ROS = {'rclpy', 'rosidl_runtime_py', 'rosidl_parser', 'builtin_interfaces', 'rosgraph_msgs'}
 
@@ -126,6 +131,14 @@ def pure(module: str) -> bool:
 
 def test_every_adapter_exists():
     assert ADAPTERS <= set(MODULES), ADAPTERS - set(MODULES)
+
+
+def test_the_link_is_pure_and_self_contained():
+    assert LINK <= set(MODULES), LINK - set(MODULES)
+    graph = edges()
+    wrong = [f'{name} imports {target}' for name in LINK for target in graph[name]
+             if target not in LINK]
+    assert not wrong and all(pure(name) for name in LINK), wrong
 
 
 def test_packages_depend_one_way():
