@@ -31,9 +31,12 @@ def test_frames_cross_udp_one_datagram_each():
             for frame in sent:
                 host.send(frame.encode())
             found: list[Frame] = []
-            for _ in sent:
-                assert UdpTransport.datagrams
-                found.extend(decoder.feed(robot.receive(1.0)))
+            for frame in sent:
+                # One receive is one whole datagram: exactly one frame's bytes, so a decoder
+                # may be flushed after each (what Transport.datagrams promises)
+                datagram = robot.receive(1.0)
+                assert robot.datagrams and datagram == frame.encode()
+                found.extend(decoder.feed(datagram))
                 found.extend(decoder.flush())
             assert robot.receive(0.01) == b''
     assert found == sent
