@@ -1,14 +1,16 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
 #   make test   set up the venv, lint (ruff), type-check the pure cores (mypy), install the
-#               firmware's Debian tools if missing (make firmware-tools), run the tests
+#               firmware's Debian tools and the browser tests' tools if missing
+#               (make firmware-tools browser-tools), run the tests
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware
+.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware \
+	browser-tools
 
 venv: $(VENV)/.installed
 
@@ -22,7 +24,7 @@ $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 run: venv
 	$(VENV)/bin/mona-swarm study --out $(STUDY_OUT)
 
-test: lint typecheck firmware-tools
+test: lint typecheck firmware-tools browser-tools
 	$(PY) -m pytest
 
 lint: venv
@@ -60,6 +62,45 @@ firmware-tools:
 	  { $$apt update -qq >/dev/null 2>&1 && \
 	    $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
 	echo "firmware-tools: apt-get failed; the firmware tests will skip"
+
+# The browser tests' tools (docs/bags.md, "The layout in a real browser"): Debian's chromium (Playwright drives it:
+# requirements.txt pins playwright, which downloads no browser of its own) and the Foxglove web
+# build from npm, @foxglove/studio-base 1.48.0 with React 17 as tests/browser/app/
+# package-lock.json pins them, into a cache OUTSIDE the checkout (FOXGLOVE_CACHE; the tests
+# read MONA_SWARM_FOXGLOVE_CACHE, same default). Quick when present (dpkg-query and a cmp of
+# the lock, 0.1 s) and soft like firmware-tools: what cannot be installed is only reported,
+# and the browser tests skip naming it.
+BROWSER_TOOLS := chromium fonts-dejavu-core
+FOXGLOVE_CACHE ?= $(or $(MONA_SWARM_FOXGLOVE_CACHE),$(HOME)/.cache/mona-swarm/foxglove)
+FOXGLOVE_APP := tests/browser/app
+browser-tools:
+	@command -v dpkg-query >/dev/null || \
+		{ echo "browser-tools: no dpkg; install $(BROWSER_TOOLS) by hand"; exit 0; }; \
+	missing=$$(for p in $(BROWSER_TOOLS); do \
+		dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; \
+	done); \
+	missing=$$(echo $$missing); \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ]; then sudo=; \
+	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then sudo='sudo -n'; \
+	else echo "browser-tools: missing $$missing (not root: the browser tests will skip)"; exit 0; \
+	fi; \
+	apt="$$sudo env DEBIAN_FRONTEND=noninteractive apt-get"; \
+	echo "browser-tools: apt-get install $$missing"; \
+	{ $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1 || \
+	  { $$apt update -qq >/dev/null 2>&1 && \
+	    $$apt install -y --no-install-recommends $$missing >/dev/null 2>&1; }; } || \
+	echo "browser-tools: apt-get failed; the browser tests will skip"
+	@cache='$(FOXGLOVE_CACHE)'; \
+	if cmp -s $(FOXGLOVE_APP)/package-lock.json "$$cache/.installed-lock.json"; then exit 0; fi; \
+	command -v npm >/dev/null || \
+		{ echo "browser-tools: no npm; the browser tests will skip"; exit 0; }; \
+	echo "browser-tools: npm ci @foxglove/studio-base into $$cache"; \
+	mkdir -p "$$cache" && \
+	cp $(FOXGLOVE_APP)/package.json $(FOXGLOVE_APP)/package-lock.json "$$cache/" && \
+	( cd "$$cache" && npm ci --no-audit --no-fund --loglevel=error >/dev/null 2>&1 ) && \
+	cp $(FOXGLOVE_APP)/package-lock.json "$$cache/.installed-lock.json" || \
+	echo "browser-tools: npm ci failed; the browser tests will skip"
 
 # The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex) and its simavr host
 # (firmware/sim/monasim); docs/link.md

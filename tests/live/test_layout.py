@@ -1,9 +1,10 @@
 """The Foxglove layout shipped in ros_ws/config: valid JSON, a whole panel tree, and only
-topics that the bags and the live view carry."""
+topics that the bags and the live view carry (tests/browser/ opens it in the real app)."""
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 from mona_controller.topics import TOPICS as CONTRACT
@@ -16,6 +17,8 @@ LAYOUT = Path(__file__).parents[2] / 'ros_ws' / 'config' / 'foxglove_layout.json
 #: Topics only the live view carries (a bag records them only with record_all): the 3D
 #: panel's cue grid and robot markers; docs/bags.md says so.
 LIVE_ONLY = {name for name, topic in CONTRACT.items() if topic.live and not topic.recorded}
+#: Topics the app's user scripts publish (inside the app, from the scripts' inputs).
+SCRIPT_PREFIX = '/studio_script/'
 
 
 def panels(tree) -> list[str]:
@@ -30,13 +33,22 @@ def topics_named(config: dict) -> dict[str, set[str]]:
     """Panel id -> the topics its configuration names."""
     named: dict[str, set[str]] = {}
     for panel, settings in config.items():
-        topics = set(settings.get('topics', {}))
-        topics |= {settings[key] for key in ('topicPath',) if key in settings}
+        topics = {topic for topic, shown in settings.get('topics', {}).items()
+                  if shown.get('visible')}
+        topics |= {settings[key] for key in ('topicPath', 'cameraTopic') if key in settings}
         if 'imageTopic' in settings.get('imageMode', {}):
             topics.add(settings['imageMode']['imageTopic'])
         topics |= {path['value'].split('.')[0] for path in settings.get('paths', [])}
         named[panel] = topics
     return named
+
+
+def script_topics(source: str) -> tuple[list[str], str]:
+    """A user script's ``(inputs, output)``, as the app reads them from its source."""
+    inputs = re.search(r'^export const inputs = \[([^\]]*)\];', source, re.M)
+    output = re.search(r'^export const output = "([^"]+)";', source, re.M)
+    assert inputs and output, 'a user script without inputs or output'
+    return re.findall(r'"([^"]+)"', inputs.group(1)), output.group(1)
 
 
 def test_the_layout_is_valid_json_with_a_whole_panel_tree():
@@ -45,24 +57,58 @@ def test_the_layout_is_valid_json_with_a_whole_panel_tree():
     tree = panels(layout['layout'])
     assert sorted(tree) == sorted(config)  # every panel placed once, none missing
     kinds = {panel.split('!')[0] for panel in tree}
-    assert {'3D', 'Image', 'Plot', 'RawMessages'} <= kinds
+    # The older image view panel: the app's new 'Image' panel is a stub in the web build.
+    assert {'3D', 'ImageViewPanel', 'Plot', 'RawMessages'} <= kinds and 'Image' not in kinds
     assert config['3D!arena']['followTf'] == 'world'  # the frame every world topic uses
 
 
+def test_the_camera_centres_the_arena_top_down():
+    """The app's camera centres on ``targetOffset`` (its ``target`` is not where it looks)."""
+    scene = json.loads(LAYOUT.read_text())['configById']['3D!arena']
+    camera, arena = scene['cameraState'], scene['layers']['arena']
+    side = arena['size']
+    assert camera['targetOffset'] == [side / 2, side / 2, 0] == arena['position']
+    assert camera['target'] == [0, 0, 0]
+    assert camera['phi'] == 0 and camera['perspective'] is False  # straight down
+    assert side < camera['distance'] < 1.3 * side  # the arena fills most of the panel
+
+
 def test_the_layout_names_only_topics_the_bags_and_the_live_view_carry():
-    named = topics_named(json.loads(LAYOUT.read_text())['configById'])
-    everything = set().union(*named.values())
+    layout = json.loads(LAYOUT.read_text())
+    named = topics_named(layout['configById'])
+    scripts = [script_topics(node['sourceCode']) for node in layout['userNodes'].values()]
+    outputs = {output for _, output in scripts}
+    assert all(output.startswith(SCRIPT_PREFIX) for output in outputs)
+    everything = set().union(*named.values(), *(inputs for inputs, _ in scripts)) - outputs
     assert everything <= set(LIVE_TOPICS)
     assert everything - LIVE_ONLY <= set(TOPICS)
     assert LIVE_ONLY <= set(LIVE_TOPICS) and not LIVE_ONLY & set(TOPICS)
     # The paper's plotted metrics (the entries with a plot label) are plotted, the
-    # announcement and the status shown, the arena's robots, obstacles and cue drawn: from a
-    # bag (poses, obstacles, cue map) and live (markers, grid).
+    # announcement and the status shown, the arena's robots (by the script, from the poses
+    # and the states), obstacles and cue drawn: the cue map from a bag, the grid live.
     shown = set().union(*(t for p, t in named.items() if p.startswith('Plot')))
     assert shown == {metric_topic(name) for name, _ in plotted() if name in PAPER_METRICS}
     assert shown == {'/metrics/mean_cue_fraction', '/metrics/ratio_near_source',
                      '/metrics/coherency'}
     assert {'/episode', '/world/status'} <= everything
-    assert named['3D!arena'] == {'/world/poses', '/world/cue_grid', '/world/markers',
+    assert scripts == [(['/world/poses', '/world/robot_states'], '/studio_script/robots')]
+    assert named['3D!arena'] == {'/studio_script/robots', '/world/cue_grid',
                                  '/world/obstacles'}
-    assert named['Image!cue'] == {'/world/cue_map'}
+    assert named['ImageViewPanel!cue'] == {'/world/cue_map'}
+
+
+def test_robots_obstacles_and_outline_have_colours_seen_on_any_cue():
+    """The cue grid runs from a dark clean floor to light grey; the outline (magenta) and the
+    obstacles (cyan) are saturated colours neither end of it nor a robot state's."""
+    scene = json.loads(LAYOUT.read_text())['configById']['3D!arena']
+    grid = scene['topics']['/world/cue_grid']
+    assert grid['colorMode'] == 'custom'
+    ends = [grid['minColor'], grid['maxColor']]
+    outline, obstacles = scene['layers']['arena'], scene['topics']['/world/obstacles']
+    for colour in (outline['color'], obstacles['color']):
+        channels = [int(colour[i:i + 2], 16) for i in (1, 3, 5)]
+        assert max(channels) - min(channels) >= 180, colour  # saturated: not on the grey ramp
+        assert colour not in ends
+    for end in ends:
+        channels = [int(end[i:i + 2], 16) for i in (1, 3, 5)]
+        assert max(channels) - min(channels) <= 10, end  # the ramp itself is grey

@@ -1,0 +1,179 @@
+"""The Foxglove web app in a real browser, as the tests open and read it.
+
+:func:`app_url` makes the deep link that opens a bag (``ds=remote-file``) or the live view
+(``ds=foxglove-websocket``) with our layout, no clicks; :class:`FoxgloveApp` waits until it
+shows data and gathers what a person looks at into a :class:`View`: screenshots of the 3D,
+image and plot panels, the text of the plots' legends, the announcement and status panels,
+the app's problem list and the playback clock.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import urlencode
+
+import numpy as np
+from PIL import Image
+
+#: The layout's panels the checks read (their ids in ros_ws/config/foxglove_layout.json).
+SCENE, CUE_MAP, EPISODE, STATUS = '3D!arena', 'ImageViewPanel!cue', 'RawMessages!episode', \
+    'RawMessages!status'
+LAYOUT_ID = 'mona-swarm'  # tests/browser/app/mount.js
+
+
+def app_url(base: str, source: str, seek_s: float | None = None) -> str:
+    """The page's URL opening ``source`` (a bag's URL, or a ``ws://`` live view) with the
+    layout; ``seek_s`` seeks a bag to that sim time (the bag's log time is sim time)."""
+    if source.startswith('ws://'):
+        query = {'ds': 'foxglove-websocket', 'ds.url': source}
+    else:
+        query = {'ds': 'remote-file', 'ds.url': source}
+    query['layoutId'] = LAYOUT_ID
+    if seek_s is not None:
+        whole, frac = divmod(round(seek_s * 1e9), 1_000_000_000)
+        stamp = time.strftime('%Y-%m-%dT%H:%M:%S', time.gmtime(whole))
+        query['time'] = f'{stamp}.{frac:09d}Z'
+    return f'{base}/app/index.html?{urlencode(query)}'
+
+
+def png(data: bytes) -> np.ndarray:
+    """A screenshot's PNG bytes as an RGB uint8 array."""
+    return np.asarray(Image.open(io.BytesIO(data)).convert('RGB'))
+
+
+def clock_seconds(text: str) -> float | None:
+    """Sim seconds of the playback clock's text (``12:02:30.000 AM UTC``: the time of day of
+    a sim time near the epoch), or None when it shows none."""
+    match = re.search(r'(\d{1,2}):(\d{2}):(\d{2})\.(\d{3})\s*(AM|PM)', text)
+    if not match:
+        return None
+    hours, minutes, seconds, millis, half = match.groups()
+    return (int(hours) % 12 + (12 if half == 'PM' else 0)) * 3600 + int(minutes) * 60 + \
+        int(seconds) + int(millis) / 1000
+
+
+@dataclass
+class View:
+    """What the app showed at one moment."""
+
+    scene: np.ndarray          # the 3D panel's canvas
+    cue_map: np.ndarray        # the image panel's canvas
+    plots: dict[str, tuple[str, np.ndarray]] = field(default_factory=dict)  # id: text, pixels
+    episode_text: str = ''     # the announcement's Raw Messages panel
+    status_text: str = ''      # the status's
+    problems: str = ''         # the Problems tab of the data source sidebar
+    clock: float | None = None  # the playback clock, sim seconds
+    topics: str = ''           # the Topics tab
+
+
+class FoxgloveApp:
+    """One page of the app: open a source, wait for it, look at it, save screenshots."""
+
+    def __init__(self, browser, shots: Path) -> None:
+        """A new page of ``browser`` (a Playwright browser context); screenshots go to
+        ``shots``."""
+        self.page = browser.new_page()
+        self.shots = shots
+        self.console: list[str] = []
+        self.page.on('console', lambda msg: self.console.append(f'{msg.type}: {msg.text}'))
+        self.page.on('pageerror', lambda error: self.console.append(f'pageerror: {error}'))
+
+    def close(self) -> None:
+        """Close the page."""
+        self.page.close()
+
+    def open(self, url: str, timeout: float = 120.0) -> float:
+        """Load ``url`` and wait until the data source is up and every panel of the layout
+        is mounted; returns the seconds it took."""
+        start = time.monotonic()
+        self.page.goto(url, wait_until='load', timeout=timeout * 1000)
+        deadline = start + timeout
+        for panel in (SCENE, CUE_MAP, EPISODE, STATUS):
+            self.panel(panel).wait_for(timeout=max(1.0, deadline - time.monotonic()) * 1000)
+        # The data source sidebar lists topics once the player is up.
+        self.page.get_by_text('/world/status', exact=True).first.wait_for(
+            timeout=max(1.0, deadline - time.monotonic()) * 1000)
+        error = self.page.evaluate('window.monaSwarmMountError || ""')
+        if error:
+            raise RuntimeError(f'the page could not mount the app: {error}')
+        self.dismiss_tips()
+        return time.monotonic() - start
+
+    def dismiss_tips(self) -> None:
+        """Close the 3D panel's first-use tooltip ("Open settings ...") if it is shown."""
+        tip = self.page.get_by_text('Open settings to configure topics and layers.')
+        if tip.count():
+            close = self.page.locator('[data-testid="CloseIcon"]')
+            if close.count():
+                close.first.click()
+
+    def panel(self, panel_id: str):
+        """The locator of a layout panel by id."""
+        return self.page.locator(f'[data-testid="panel-mouseenter-container {panel_id}"]')
+
+    def canvas(self, panel_id: str) -> np.ndarray:
+        """The pixels of the largest canvas of a panel (what it draws, without its toolbar)."""
+        canvases = self.panel(panel_id).locator('canvas')
+        sizes = [canvases.nth(i).bounding_box() or {'width': 0, 'height': 0}
+                 for i in range(canvases.count())]
+        if not sizes:
+            return np.zeros((0, 0, 3), dtype=np.uint8)
+        best = max(range(len(sizes)), key=lambda i: sizes[i]['width'] * sizes[i]['height'])
+        return png(canvases.nth(best).screenshot())
+
+    def text(self, panel_id: str) -> str:
+        """A panel's visible text."""
+        return self.panel(panel_id).inner_text()
+
+    def sidebar_tab(self, name: str) -> str:
+        """Click a tab of the data source sidebar (Topics, Problems) and return its text."""
+        tab = self.page.get_by_role('tab', name=name)
+        if tab.count() == 0:
+            tab = self.page.get_by_text(name, exact=True)
+        tab.first.click()
+        self.page.wait_for_timeout(300)
+        return self.page.locator('[role="tabpanel"]').first.inner_text() \
+            if self.page.locator('[role="tabpanel"]').count() else self.page.inner_text('body')
+
+    def clock(self) -> float | None:
+        """The playback clock in sim seconds (None while it shows no time)."""
+        clock = self.page.locator('[data-testid="PlaybackTime-text"]')
+        if clock.count() == 0:
+            return None
+        field = clock.locator('input')
+        return clock_seconds(field.first.input_value() if field.count() else clock.inner_text())
+
+    def look(self, plots: list[str]) -> View:
+        """Everything the checks need, read now."""
+        view = View(scene=self.canvas(SCENE), cue_map=self.canvas(CUE_MAP))
+        for plot in plots:
+            view.plots[plot] = (self.text(plot), self.canvas(plot))
+        view.episode_text = self.text(EPISODE)
+        view.status_text = self.text(STATUS)
+        view.clock = self.clock()
+        view.topics = self.sidebar_tab('Topics')
+        view.problems = self.sidebar_tab('Problems')
+        self.sidebar_tab('Topics')
+        return view
+
+    def save(self, name: str) -> Path:
+        """A full-page screenshot ``<shots>/<name>.png``."""
+        self.shots.mkdir(parents=True, exist_ok=True)
+        path = self.shots / f'{name}.png'
+        self.page.screenshot(path=str(path))
+        return path
+
+    def wait_until(self, condition, what: str, timeout: float = 60.0, every: float = 1.0):
+        """Poll ``condition()`` (truthy result returned) until ``timeout`` seconds."""
+        deadline = time.monotonic() + timeout
+        while True:
+            result = condition()
+            if result:
+                return result
+            if time.monotonic() > deadline:
+                raise AssertionError(f'the app never showed {what} in {timeout:.0f} s')
+            self.page.wait_for_timeout(every * 1000)
