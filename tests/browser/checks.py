@@ -33,6 +33,7 @@ class Expected:
     positions: np.ndarray | None = None    # robots' (x, y) shown (a bag at a seek time)
     cue: np.ndarray | None = None          # the cue map shown (a bag), uint8 rows x cols
     states: np.ndarray | None = None       # their controller states shown (a bag)
+    sources: np.ndarray | None = None      # the sources' (x, y) shown (a bag)
 
 
 def plots_of(layout: Path) -> dict[str, tuple[str, str]]:
@@ -78,7 +79,25 @@ def scene_findings(scene: np.ndarray, expected: Expected) -> list[str]:
                      f'{expected.population} robots')
     if expected.positions is not None:
         found += position_findings(scene, outline, expected.positions, expected.states)
+    found += source_findings(scene, outline, expected.sources)
     return found
+
+
+def source_findings(scene: np.ndarray, outline: pixels.Box,
+                    sources: np.ndarray | None) -> list[str]:
+    """The sources' markers drawn (a bag: each where the bag puts it)."""
+    mask = pixels.hue_mask(scene, pixels.SOURCE_HUE)
+    if not pixels.blobs(mask):
+        return ['the 3D panel shows no source marker']
+    if sources is None:
+        return []
+    radius = max(3, int(round(0.04 / SIDE * outline.size[0])))
+    missing = []
+    for k, (x, y) in enumerate(pixels.to_pixels(sources, outline, SIDE)):
+        if not mask[max(0, int(y) - radius):int(y) + radius + 1,
+                    max(0, int(x) - radius):int(x) + radius + 1].any():
+            missing.append(k)
+    return [f'no source marker where sources {missing} are'] if missing else []
 
 
 def position_findings(scene: np.ndarray, outline: pixels.Box, positions: np.ndarray,

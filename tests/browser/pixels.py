@@ -1,9 +1,10 @@
 """What a person sees in a screenshot of the Foxglove panels, as numbers (numpy only).
 
 The layout (ros_ws/config/foxglove_layout.json) draws each robot as a disc in its controller
-state's colour with a white heading arrow, the arena's outline and grid in magenta and the
-obstacles in cyan; these functions find those colours by hue (the 3D panel shades a
-colour, it does not keep it exact) and measure where they are.
+state's colour with a white heading arrow, the arena's outline and grid in yellow, the
+obstacles in cyan and the sources in magenta (their markers' own colour); these functions
+find those colours by hue (the 3D panel shades a colour, it does not keep it exact) and
+measure where they are.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from scipy import ndimage
 #: Hue (degrees) of each controller state's colour as the 3D panel draws it
 #: (swarm_metrics.world_cdr.STATE_COLOURS: green, orange, red, blue).
 STATE_HUES = {'follow': 125.0, 'avoid': 37.0, 'wait': 0.0, 'turn': 224.0}
-#: The arena outline (layer colour #ff3cff) and the obstacles (#00bcd4).
-OUTLINE_HUE, OBSTACLE_HUE = 300.0, 187.0
+#: The arena outline (layer colour #fff000), the obstacles (#00bcd4) and the sources
+#: (swarm_world.arena_markers.SOURCE_COLOUR, magenta).
+OUTLINE_HUE, OBSTACLE_HUE, SOURCE_HUE = 56.5, 187.0, 300.0
 HUE_TOLERANCE = 14.0
 
 

@@ -11,6 +11,7 @@ from checks import Expected, plots_of
 
 from swarm_metrics.bag_reader import McapScan, cue_of, decode, find_mcap, poses_of
 from swarm_metrics.world_cdr import states_from_cdr
+from swarm_world.arena_markers import sources_from_markers
 
 
 def latest(bag: Path, topic: str, at_ns: int):
@@ -30,9 +31,11 @@ def expected_at(bag: Path, at_s: float, layout: Path, mode: str) -> Expected:
     image = cue_of(decode(latest(bag, '/world/cue_map', at_ns)))[::-1]  # as drawn: max y on top
     announcement = decode(latest(bag, '/episode', at_ns))
     announced = json.loads(announcement.data)
+    sources = sources_from_markers(decode(latest(bag, '/world/sources', at_ns)).markers)
     return Expected(population=len(poses), seed=int(announced['seed']), mode=mode,
                     plots=plots_of(layout), positions=poses[:, :2], cue=image,
-                    states=None if states is None else states_from_cdr(states.data))
+                    states=None if states is None else states_from_cdr(states.data),
+                    sources=np.array([(x, y) for _, x, y in sources]).reshape(-1, 2))
 
 
 def states_at(bag: Path, at_s: float) -> np.ndarray | None:

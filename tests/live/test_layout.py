@@ -12,6 +12,7 @@ from mona_controller.topics import metric_topic
 from swarm_metrics.metrics import PAPER_METRICS, plotted
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.outputs.bag import TOPICS
+from swarm_world.arena_markers import SOURCE_COLOUR
 
 LAYOUT = Path(__file__).parents[2] / 'ros_ws' / 'config' / 'foxglove_layout.json'
 #: Topics only the live view carries (a bag records them only with record_all): the 3D
@@ -93,13 +94,13 @@ def test_the_layout_names_only_topics_the_bags_and_the_live_view_carry():
     assert {'/episode', '/world/status'} <= everything
     assert scripts == [(['/world/poses', '/world/robot_states'], '/studio_script/robots')]
     assert named['3D!arena'] == {'/studio_script/robots', '/world/cue_grid',
-                                 '/world/obstacles'}
+                                 '/world/obstacles', '/world/sources'}
     assert named['ImageViewPanel!cue'] == {'/world/cue_map'}
 
 
 def test_robots_obstacles_and_outline_have_colours_seen_on_any_cue():
-    """The cue grid runs from a dark clean floor to light grey; the outline (magenta) and the
-    obstacles (cyan) are saturated colours neither end of it nor a robot state's."""
+    """The cue grid runs from a dark clean floor to light grey; the outline (yellow) and the
+    obstacles (cyan) are saturated colours off that ramp, as the sources' own magenta is."""
     scene = json.loads(LAYOUT.read_text())['configById']['3D!arena']
     grid = scene['topics']['/world/cue_grid']
     assert grid['colorMode'] == 'custom'
@@ -109,6 +110,8 @@ def test_robots_obstacles_and_outline_have_colours_seen_on_any_cue():
         channels = [int(colour[i:i + 2], 16) for i in (1, 3, 5)]
         assert max(channels) - min(channels) >= 180, colour  # saturated: not on the grey ramp
         assert colour not in ends
+    source = [round(255 * c) for c in SOURCE_COLOUR[:3]]
+    assert max(source) - min(source) >= 180
     for end in ends:
         channels = [int(end[i:i + 2], 16) for i in (1, 3, 5)]
         assert max(channels) - min(channels) <= 10, end  # the ramp itself is grey
