@@ -34,6 +34,7 @@ class Expected:
     cue: np.ndarray | None = None          # the cue map shown (a bag), uint8 rows x cols
     states: np.ndarray | None = None       # their controller states shown (a bag)
     sources: np.ndarray | None = None      # the sources' (x, y) shown (a bag)
+    obstacle_area: float = 0.0             # m^2 of obstacles in the arena (drawn cyan)
 
 
 def plots_of(layout: Path) -> dict[str, tuple[str, str]]:
@@ -80,6 +81,12 @@ def scene_findings(scene: np.ndarray, expected: Expected) -> list[str]:
     if expected.positions is not None:
         found += position_findings(scene, outline, expected.positions, expected.states)
     found += source_findings(scene, outline, expected.sources)
+    if expected.obstacle_area > 0:
+        drawn = int(pixels.hue_mask(scene, pixels.OBSTACLE_HUE).sum())
+        area = expected.obstacle_area * (bw / SIDE) ** 2
+        if drawn < 0.5 * area:
+            found.append(f'the 3D panel shows {drawn} px of obstacles, less than half of '
+                         f'their {area:.0f} px')
     return found
 
 
