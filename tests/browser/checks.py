@@ -49,6 +49,12 @@ def rgb(colour: str) -> tuple[int, int, int]:
     return int(colour[1:3], 16), int(colour[3:5], 16), int(colour[5:7], 16)
 
 
+def series_hue(colour: str) -> float:
+    """The hue (degrees) of a ``#rrggbb`` colour."""
+    hue, _, _ = pixels.hsv(np.array([[rgb(colour)]], dtype=np.uint8))
+    return float(hue[0, 0])
+
+
 def scene_findings(scene: np.ndarray, expected: Expected) -> list[str]:
     """The 3D panel: the arena outline centred and large, the robots drawn (where they
     are, when known) in their states' colours with a heading."""
@@ -169,8 +175,9 @@ def plot_findings(plots: dict[str, tuple[str, np.ndarray]],
                            if label[:12] in text else '')
         if label[:12] not in text or number is None:
             found.append(f'the plot {label!r} has no legend value (its text: {text!r})')
-        target = np.array(rgb(colour), dtype=np.int32)
-        near = np.abs(image[..., :3].astype(np.int32) - target).max(axis=-1) < 40
+        # By hue: a thin anti-aliased line keeps its colour's hue, not its value.
+        near = pixels.hue_mask(image, series_hue(colour), tolerance=10.0, saturation=0.35,
+                               value=0.25) if image.size else np.zeros((0, 0), dtype=bool)
         # A series spans the plot; the legend's swatch of the same colour covers a few columns.
         columns = float(near.any(axis=0).mean()) if near.size else 0.0
         if columns < 0.3:
@@ -201,15 +208,18 @@ def findings(view: View, expected: Expected) -> list[str]:
             plot_findings(view.plots, expected) + text_findings(view, expected))
 
 
-def settle(app, expected: Expected, timeout: float = 60.0,
+def settle(app, expected: Expected, timeout: float = 120.0,
            enough=lambda found: not found) -> tuple[View, list[str]]:
     """Look at the app until ``enough(findings)`` holds (by default: no findings) or
     ``timeout`` seconds pass (panels fill in as messages arrive); the last look and its
     findings."""
     deadline = time.monotonic() + timeout
     while True:
+        started = time.monotonic()
         view = app.look(list(expected.plots))
         found = findings(view, expected)
+        print(f'looked in {time.monotonic() - started:.1f} s: {len(found)} findings '
+              f'{[line[:60] for line in found]}')
         if enough(found) or time.monotonic() > deadline:
             return view, found
         app.page.wait_for_timeout(2000)

@@ -23,6 +23,19 @@ from PIL import Image
 SCENE, CUE_MAP, EPISODE, STATUS = '3D!arena', 'ImageViewPanel!cue', 'RawMessages!episode', \
     'RawMessages!status'
 LAYOUT_ID = 'mona-swarm'  # tests/browser/app/mount.js
+#: Per panel id: its text and the box (x, y, width, height) of its largest canvas, or null.
+PANELS_JS = """(ids) => Object.fromEntries(ids.map((id) => {
+  const panel = document.querySelector(`[data-testid="panel-mouseenter-container ${id}"]`);
+  if (!panel) { return [id, {text: '', canvas: null}]; }
+  let best = null;
+  for (const canvas of panel.querySelectorAll('canvas')) {
+    const r = canvas.getBoundingClientRect();
+    if (r.width * r.height > 0 && (!best || r.width * r.height > best[2] * best[3])) {
+      best = [r.x, r.y, r.width, r.height];
+    }
+  }
+  return [id, {text: panel.innerText, canvas: best}];
+}))"""
 
 
 def app_url(base: str, source: str, seek_s: float | None = None) -> str:
@@ -43,6 +56,12 @@ def app_url(base: str, source: str, seek_s: float | None = None) -> str:
 def png(data: bytes) -> np.ndarray:
     """A screenshot's PNG bytes as an RGB uint8 array."""
     return np.asarray(Image.open(io.BytesIO(data)).convert('RGB'))
+
+
+def status_seconds(text: str) -> float | None:
+    """The sim time (s) of the status a Raw Messages panel shows (its ``time_ns``)."""
+    match = re.search(r'"time_ns": (\d+)', text)
+    return int(match.group(1)) / 1e9 if match else None
 
 
 def clock_seconds(text: str) -> float | None:
@@ -66,7 +85,8 @@ class View:
     episode_text: str = ''     # the announcement's Raw Messages panel
     status_text: str = ''      # the status's
     problems: str = ''         # the Problems tab of the data source sidebar
-    clock: float | None = None  # the playback clock, sim seconds
+    clock: float | None = None  # the playback clock (a bag), sim seconds
+    status_time: float | None = None  # the shown status's sim time, seconds
     topics: str = ''           # the Topics tab
 
 
@@ -115,16 +135,6 @@ class FoxgloveApp:
         """The locator of a layout panel by id."""
         return self.page.locator(f'[data-testid="panel-mouseenter-container {panel_id}"]')
 
-    def canvas(self, panel_id: str) -> np.ndarray:
-        """The pixels of the largest canvas of a panel (what it draws, without its toolbar)."""
-        canvases = self.panel(panel_id).locator('canvas')
-        sizes = [canvases.nth(i).bounding_box() or {'width': 0, 'height': 0}
-                 for i in range(canvases.count())]
-        if not sizes:
-            return np.zeros((0, 0, 3), dtype=np.uint8)
-        best = max(range(len(sizes)), key=lambda i: sizes[i]['width'] * sizes[i]['height'])
-        return png(canvases.nth(best).screenshot())
-
     def text(self, panel_id: str) -> str:
         """A panel's visible text."""
         return self.panel(panel_id).inner_text()
@@ -148,12 +158,25 @@ class FoxgloveApp:
         return clock_seconds(field.first.input_value() if field.count() else clock.inner_text())
 
     def look(self, plots: list[str]) -> View:
-        """Everything the checks need, read now."""
-        view = View(scene=self.canvas(SCENE), cue_map=self.canvas(CUE_MAP))
+        """Everything the checks need, read now: one screenshot of the page, cut to each
+        panel's largest canvas (what it draws, without its toolbar), and the panels' text."""
+        ids = [SCENE, CUE_MAP, EPISODE, STATUS, *plots]
+        panels = self.page.evaluate(PANELS_JS, ids)
+        shot = png(self.page.screenshot())
+
+        def cut(panel_id: str) -> np.ndarray:
+            box = panels[panel_id]['canvas']
+            if box is None:
+                return np.zeros((0, 0, 3), dtype=np.uint8)
+            x, y, w, h = (int(round(v)) for v in box)
+            return shot[max(0, y):y + h, max(0, x):x + w]
+
+        view = View(scene=cut(SCENE), cue_map=cut(CUE_MAP))
         for plot in plots:
-            view.plots[plot] = (self.text(plot), self.canvas(plot))
-        view.episode_text = self.text(EPISODE)
-        view.status_text = self.text(STATUS)
+            view.plots[plot] = (panels[plot]['text'], cut(plot))
+        view.episode_text = panels[EPISODE]['text']
+        view.status_text = panels[STATUS]['text']
+        view.status_time = status_seconds(view.status_text)
         view.clock = self.clock()
         view.topics = self.sidebar_tab('Topics')
         view.problems = self.sidebar_tab('Problems')
