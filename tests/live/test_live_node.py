@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.system.live_node import NODE_TOPICS
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
@@ -92,7 +93,7 @@ def final(capture: Capture) -> bool:
     statuses = [json.loads(msg.data) for _, msg in capture.messages.get('/world/status', ())]
     return any(s['state'] == 'finished' for s in statuses) and \
         {'/world/poses', '/world/cue_map', '/world/sources', '/world/robot_states',
-         '/episode'} <= set(capture.messages)
+         '/world/markers', '/episode'} <= set(capture.messages)
 
 
 def test_after_the_run_the_live_view_serves_its_final_state_until_ctrl_c(tmp_path):
@@ -112,7 +113,13 @@ def test_after_the_run_the_live_view_serves_its_final_state_until_ctrl_c(tmp_pat
         assert seen.subprotocol == LEGACY_SUBPROTOCOL and final(seen), sorted(seen.messages)
         log_time, poses = seen.messages['/world/poses'][-1]
         assert log_time >= 8 * 10**9 and len(poses.poses) == POPULATION  # the end's poses
-        assert len(bytes(seen.messages['/world/robot_states'][-1][1].data)) == POPULATION
+        states = bytes(seen.messages['/world/robot_states'][-1][1].data)
+        assert len(states) == POPULATION
+        # The world's markers are coloured by the states it gathers (the embedded colours).
+        markers = seen.messages['/world/markers'][-1][1].markers
+        assert [(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3))
+                for m in markers] == [tuple(round(c, 3) for c in STATE_COLOURS[s][:3])
+                                      for s in states]
         assert run.process.poll() is None  # still serving
         os.killpg(run.process.pid, signal.SIGINT)
         status = run.wait(60)
