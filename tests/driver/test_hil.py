@@ -1,0 +1,118 @@
+"""Hardware in the loop: the driver node against three Mona firmwares in simavr (the images
+one would flash), an emulated arena and tracker (``driver_hil``), the unchanged controller
+nodes (one process per Mona, scripts/swarm.sh --role controllers) and the metrics node and
+supervisor (--role supervision), for a whole 30 s realtime episode."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.completeness import check_bag
+
+from harness import REPO
+
+pytestmark = pytest.mark.ros
+
+VENV_BIN = REPO / '.venv' / 'bin'
+TOOLS = ('avr-gcc', 'make', 'cc')
+ROBOTS = 3
+DURATION = 30
+
+
+def needs_firmware_tools() -> None:
+    missing = [tool for tool in TOOLS if shutil.which(tool) is None]
+    if missing or not Path('/usr/include/simavr/sim_avr.h').exists():
+        pytest.skip(f'hardware in the loop needs {missing or "simavr"}: make firmware-tools')
+
+
+def small_arena(tmp_path: Path, **faults) -> Path:
+    """The shipped parameter file on a 0.6 m arena, so three robots meet within 30 s."""
+    document = yaml.safe_load((REPO / 'ros_ws/config/mona_swarm.yaml').read_text())
+    parameters = document['/**']['ros__parameters']
+    parameters['world']['arena_side'] = 0.6
+    parameters['world']['cue_diameter'] = 0.6
+    parameters['episode'].update(population=ROBOTS, duration=float(DURATION))
+    path = tmp_path / 'hil.yaml'
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+def run_hil(processes, ros_env, tmp_path: Path, hil_options: list[str] = ()) -> dict:
+    """Start the harness, the controllers and the supervision; wait for the run's end."""
+    needs_firmware_tools()
+    params = small_arena(tmp_path)
+    domain = ros_env['ROS_DOMAIN_ID']
+    hil = processes.spawn([str(VENV_BIN / 'driver_hil'), '--robots', str(ROBOTS),
+                           '--params-file', str(params), '--out', str(tmp_path / 'hil'),
+                           *hil_options, '--', '-p', 'recorders:=metrics'], 'hil')
+    swarm = str(REPO / 'scripts' / 'swarm.sh')
+    controllers = processes.spawn([swarm, '--role', 'controllers', '--robots', '0-2',
+                                   '--domain', domain, '--population', str(ROBOTS),
+                                   '--config', str(params), '--out', str(tmp_path / 'ctl')],
+                                  'controllers')
+    started = time.monotonic()
+    supervision = processes.spawn([swarm, '--role', 'supervision', '--domain', domain,
+                                   '--population', str(ROBOTS), '--duration', str(DURATION),
+                                   '--mode', 'realtime', '--config', str(params), '--out',
+                                   str(tmp_path / 'run')], 'supervision')
+    try:
+        assert supervision.wait(timeout=150) == 0, processes.log('supervision')
+        assert hil.wait(timeout=30) == 0, processes.log('hil')
+        assert controllers.wait(timeout=30) == 0, processes.log('controllers')
+    except subprocess.TimeoutExpired:
+        pytest.fail('the run did not end: ' + processes.log('supervision')[-2000:])
+    wall = time.monotonic() - started
+    return {'run': tmp_path / 'run', 'hil': tmp_path / 'hil', 'wall': wall}
+
+
+def meets(poses: np.ndarray, robot: np.ndarray, reach: float) -> bool:
+    """Whether a robot at pose ``robot`` has another one of ``poses`` within ``reach``."""
+    distances = np.linalg.norm(poses[:, :2] - robot[:2], axis=1)
+    return bool(((distances > 1e-9) & (distances <= reach)).any())
+
+
+def test_a_whole_episode_with_three_simulated_firmwares(processes, ros_env, tmp_path):
+    result = run_hil(processes, ros_env, tmp_path)
+    run = json.loads((result['run'] / 'run.json').read_text())
+    (episode,) = run['episodes']
+    assert episode['records']['metrics']['complete'], episode['records']
+    assert episode['steps'] == round(DURATION / 0.032 + 0.5)  # 938 steps of 32 ms
+    bag = read_episode_bag(Path(episode['records']['metrics']['path']))
+    _, findings = check_bag(bag)
+    assert findings == [], findings
+    # Robots that meet clean: every cleaning robot had another robot within reach (two
+    # radii, the IR range and the tracker margin) at a pose sample of that second.
+    assert len(bag.cleaning) >= 1, 'nobody cleaned in 30 s on a 0.6 m arena'
+    samples = dict(bag.poses)
+    reach = 2 * 0.04 + 0.03 + 0.02
+    checked = 0
+    for time_ns, cleaners in bag.cleaning:
+        if time_ns in samples:
+            for robot in cleaners:
+                assert meets(samples[time_ns], robot, reach), (time_ns, robot)
+                checked += 1
+    assert checked >= 1
+    final_cue, initial_cue = bag.cue_maps[-1][1], bag.cue_maps[0][1]
+    assert final_cue.sum() < initial_cue.sum()  # the cleaning acted on the virtual cue
+    # The robots moved: the tracker (the bag's poses) saw them travel.
+    first, last = bag.poses[0][1], bag.poses[-1][1]
+    assert np.linalg.norm(last[:, :2] - first[:, :2], axis=1).max() > 0.05
+    # The link: every robot's telemetry came (20 Hz of the firmware's time, which lags the
+    # wall clock on a loaded machine: the harness says by how much), none lost.
+    record = json.loads((result['hil'] / 'episode_0' / 'driver.json').read_text())
+    for robot in record['robots']:
+        assert robot['received'] >= 20 * DURATION * 0.7, robot
+        assert robot['lost'] == 0 and robot['reboots'] == 0, robot
+        assert robot['held_steps'] <= 10, robot  # at most 0.3 s held, at the start
+    print(f'hil: {result["wall"]:.1f} s wall, {len(bag.cleaning)} cleaning events, '
+          f'misses {episode["misses"]}, telemetry {[r["received"] for r in record["robots"]]}; '
+          + processes.log('hil').strip().splitlines()[-1])
