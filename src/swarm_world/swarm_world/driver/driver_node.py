@@ -29,7 +29,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from mona_controller import qos
-from mona_controller.contract import WorldState
+from mona_controller.contract import Announcement, ContractError, WorldState
 from mona_controller.link.frame import Decoder
 from mona_controller.link.transport import SerialTransport, Transport, UdpTransport
 from mona_controller.mona import MonaParams
@@ -66,9 +66,10 @@ def open_link(url: str, baud: int) -> Transport:
 class DriverNode(WorldNode):
     """The world node's topics for real (or emulated) Monas: tracker poses, link telemetry."""
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, *, parameter_overrides: Sequence[Parameter] = (), **kwargs) -> None:
         # Real robots run on the wall clock: always realtime.
-        super().__init__(parameter_overrides=[Parameter('mode', value='realtime')], **kwargs)
+        super().__init__(parameter_overrides=[*parameter_overrides,
+                                              Parameter('mode', value='realtime')], **kwargs)
         self.driver = declare_section(self, DriverParams, 'driver.')
         urls = self.driver.link_urls()
         if not urls:
@@ -113,6 +114,21 @@ class DriverNode(WorldNode):
         return time.monotonic() - self.host_start
 
     # --- inputs -------------------------------------------------------------------------
+
+    def on_episode(self, msg: String) -> None:
+        """As the world node; an episode of more robots than links is refused, naming them."""
+        try:
+            announcement = Announcement.from_json(msg.data)
+        except ContractError:
+            announcement = None  # the world node says why
+        if announcement is not None and not announcement.shutdown and \
+                announcement.population > len(self.link_of) and \
+                (self.announcement is None or self.announcement.key != announcement.key):
+            self.announcement, self.episode = announcement, announcement.episode
+            self.fail(f'episode {self.episode} rejected: {announcement.population} robots '
+                      f'announced, but driver.links names {len(self.link_of)}', fatal=False)
+            return
+        super().on_episode(msg)
 
     def poll_links(self) -> None:
         """Read every link: fresh telemetry updates the robot's IR. Between episodes, a stop
