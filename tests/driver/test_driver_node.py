@@ -3,10 +3,12 @@ command lines as real processes (bad input: exit 2, one line; SIGTERM: a clean s
 
 from __future__ import annotations
 
+import shutil
 import signal
 import socket
 import subprocess
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +22,7 @@ from mona_controller.contract import Announcement, WorldStatus
 from mona_controller.link.frame import Decoder, Frame
 from mona_controller.link.payloads import COMMAND, TELEMETRY, Command, Telemetry
 from swarm_world.driver.driver_node import TRACKER_QOS, DriverNode
+from swarm_world.driver.hil import build_images
 from swarm_world.world_messages import PoseArrayFiller
 
 from harness import REPO
@@ -176,3 +179,37 @@ def test_the_harness_stops_cleanly_on_a_signal(processes, tmp_path, stop):
                           text=True).stdout.split()
     assert left == [], left
     assert 'driver_hil: the firmwares ran' in processes.log('hil')
+
+
+def test_the_driver_speaks_serial_to_a_firmware_on_a_pty_shared_by_two_ids(
+        executor, spin_until, tmp_path):
+    """One firmware (robot 1) on a pseudo-terminal that the links of robots 0 and 1 share, as
+    robots on one radio do: the driver's frames reach it and its telemetry is robot 1's."""
+    if shutil.which('avr-gcc') is None or not Path('/usr/include/simavr/sim_avr.h').exists():
+        pytest.skip('needs the firmware tools: make firmware-tools')
+    images, monasim = build_images(2, tmp_path / 'firmware')
+    process = subprocess.Popen([str(monasim), str(images[1]), '--pty', '8'],
+                               stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        line = ''
+        while not line.startswith('P '):  # simavr's own lines first
+            line = process.stdout.readline()
+            assert line, 'monasim ended without a pty'
+        pty = line.split()[1]
+        node = DriverNode(context=executor.context, parameter_overrides=[
+            Parameter('driver.links', value=f'{pty},{pty}')])
+        executor.add_node(node)
+        assert len(node.transports) == 1  # one port for both robots
+        spin_until(lambda: node.fleet.robots[1].stream.received >= 30, timeout=20,
+                   what='30 telemetry frames over the pty')
+        robot1 = node.fleet.robots[1]
+        assert robot1.telemetry.ack > 0  # it applied the driver's stops (its own id)
+        assert robot1.stream.lost == 0 and robot1.telemetry.rx_rejected == 0
+        assert node.fleet.robots[0].stream.received == 0  # nobody answers as robot 0
+        decoder = node.decoders[pty]
+        assert decoder.rejected['bad_crc'] == 0 and decoder.rejected['truncated'] == 0
+        node.close_ports()
+    finally:
+        process.kill()
+        process.wait(timeout=10)
