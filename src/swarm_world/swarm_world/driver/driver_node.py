@@ -100,6 +100,7 @@ class DriverNode(WorldNode):
         self.host_start = time.monotonic()
         self.step_origin: float | None = None  # host time of the episode's step 0
         self.next_keep_alive = 0.0
+        self.stalls = 0  # ticks that could not catch up every due step
         self.driver_pub = self.create_publisher(String, DRIVER_STATUS, qos.STATUS_QOS)
         self.create_subscription(PoseArray, self.driver.tracker_topic, self.on_tracker,
                                  TRACKER_QOS)
@@ -174,6 +175,13 @@ class DriverNode(WorldNode):
         if self.world.steps == 0 or self.step_origin is None:
             self.step_origin = now - period
         due = int((now - self.step_origin) / period) - self.world.steps
+        if due > MAX_CATCH_UP:  # a stall longer than 10 steps: sim time falls behind
+            self.step_origin += (due - MAX_CATCH_UP) * period
+            self.stalls += 1
+            self.get_logger().warning(f'step {self.world.steps}: {due} steps due after a '
+                                      f'stall; {MAX_CATCH_UP} taken, sim time is '
+                                      f'{(due - MAX_CATCH_UP) * period:.3f} s behind the host '
+                                      'clock from here', throttle_duration_sec=5.0)
         for _ in range(max(1, min(due, MAX_CATCH_UP))):
             held = self.fleet.held(now)[:self.world.population]
             self.world.held = held
@@ -226,7 +234,7 @@ class DriverNode(WorldNode):
                     for url, decoder in self.decoders.items()}
         return {'episode': self.episode, 'time_ns': self.time_ns, 'robots':
                 self.fleet.counters(), 'rejected': rejected,
-                'tracker_wrong_frame': self.tracker_frames}
+                'tracker_wrong_frame': self.tracker_frames, 'stalls': self.stalls}
 
     def write_driver_record(self) -> None:
         """<output_dir>/episode_<k>/driver.json: the fault counts of the episode."""
