@@ -142,8 +142,8 @@ def test_wheel_conversions_invert_the_controllers_and_the_firmwares():
         assert abs(pwm_to_permille(pwm, command < 0) - command) <= 1000 / 230 / 2 + 1e-9
 
 
-def telemetry(robot: int, seq: int, nonce: int, ir=(1023,) * 5) -> Frame:
-    payload = Telemetry(tuple(ir), 0, 0, 3700, 0, 0, 0).encode()
+def telemetry(robot: int, seq: int, nonce: int, ir=(1023,) * 5, battery=3700) -> Frame:
+    payload = Telemetry(tuple(ir), 0, 0, battery, 0, 0, 0).encode()
     return Frame(robot, seq, nonce, TELEMETRY, payload)
 
 
@@ -184,3 +184,15 @@ def test_commands_carry_the_host_nonce_and_a_rising_sequence():
     assert (a.kind, a.nonce, a.robot) == (COMMAND, 0x1234, 0)
     assert b.seq == a.seq + 1
     assert Command.decode(a.payload) == Command(500, -20, True)
+
+
+def test_a_low_battery_is_counted_once_and_logged_and_the_robot_goes_on():
+    fleet = Fleet(1, host_nonce=1, silent_after=0.5, tracker_timeout=0.5, battery_low=3400)
+    fleet.tracked(np.array([True]), 0.0)
+    for seq, mv in enumerate((3800, 3390, 3380, 3390)):
+        fleet.receive(telemetry(0, seq, 7, battery=mv), 0.05 * seq)
+    assert fleet.held(0.2).tolist() == [False]
+    row = fleet.counters()[0]
+    assert (row['low_battery'], row['battery_mv']) == (1, 3390)
+    assert fleet.take_events() == ['robot 0 battery low: 3390 mV < 3400 mV',
+                                   'robot 0 back: telemetry and pose']

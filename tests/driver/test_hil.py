@@ -123,7 +123,8 @@ def test_a_whole_episode_with_three_simulated_firmwares(processes, ros_env, tmp_
 
 FAULTS = ['--latency', '0.1', '--loss', '0.05', '--duplicate', '0.05',
           '--tracker-latency', '0.1', '--tracker-noise', '0.002',
-          '--reboot', '0@10', '--silence', '1@12+3', '--dropout', '2@18+3', '--seed', '5']
+          '--reboot', '0@10', '--silence', '1@12+3', '--dropout', '2@18+3',
+          '--battery', '2@8=3300', '--seed', '5']
 
 
 def absent_in_statuses(bag, robot: int) -> int:
@@ -134,9 +135,9 @@ def absent_in_statuses(bag, robot: int) -> int:
 
 def test_faults_are_survived_counted_and_recorded(processes, ros_env, tmp_path):
     """100 ms of link latency each way, 5 % of frames lost and 5 % duplicated each way, a
-    tracker 100 ms late with 2 mm of noise; robot 0 reboots, robot 1's radio is dead for 3 s,
-    the tracker loses robot 2 for 3 s. The run completes with a complete record, and every
-    fault is in driver.json and the bag's statuses."""
+    tracker 100 ms late with 2 mm of noise; robot 0 reboots, robot 1's radio is dead for
+    3 s, the tracker loses robot 2 for 3 s and its battery sags to 3.3 V. The run completes
+    with a complete record, and every fault is in driver.json and the bag's statuses."""
     # A loaded machine can stall the emulator for half a second (its firmwares then lag the
     # wall clock): judge silence and dropouts over 1 s, still well within the 3 s faults.
     result = run_hil(processes, ros_env, tmp_path, FAULTS,
@@ -160,7 +161,11 @@ def test_faults_are_survived_counted_and_recorded(processes, ros_env, tmp_path):
     assert rows[0]['held_steps'] * 2 < min(rows[1]['held_steps'], rows[2]['held_steps'])
     # The held robots are absent in the record (the bag's /world/status), the others not.
     assert absent_in_statuses(bag, 1) >= 1 and absent_in_statuses(bag, 2) >= 1
+    # The sagging battery is read through the firmware's ADC and divider, counted once.
+    assert rows[2]['low_battery'] == 1 and abs(rows[2]['battery_mv'] - 3300) <= 10, rows[2]
+    assert rows[0]['low_battery'] == 0 and abs(rows[0]['battery_mv'] - 3900) <= 10, rows[0]
     log = (result['hil'] / 'driver_node.log').read_text()
+    assert 'robot 2 battery low' in log
     assert 'robot 0 rebooted' in log and 'robot 1 silent' in log
     assert 'robot 2 lost by the tracker' in log
     counts = [(r['lost'], r['duplicated'], r['held_steps']) for r in rows]

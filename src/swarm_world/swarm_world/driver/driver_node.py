@@ -96,7 +96,7 @@ class DriverNode(WorldNode):
         self.link_of = [self.transports[url] for url in urls]
         self.decoders = {url: Decoder() for url in self.transports}
         self.fleet = Fleet(len(urls), secrets.randbits(16), self.driver.silent_after,
-                           self.driver.tracker_timeout)
+                           self.driver.tracker_timeout, self.driver.battery_low)
         self.host_start = time.monotonic()
         self.step_origin: float | None = None  # host time of the episode's step 0
         self.next_keep_alive = 0.0
@@ -149,6 +149,8 @@ class DriverNode(WorldNode):
                     telemetry = self.fleet.receive(frame, self.now())
                     if telemetry is not None and frame.robot < population:
                         self.world.set_ir(frame.robot, np.array(telemetry.ir))
+        if self.state is not WorldState.RUNNING:
+            self.log_events()  # a running world logs them each tick
 
     def on_tracker(self, msg: PoseArray) -> None:
         """The tracker's poses: robot i at index i, a NaN position where it was not seen."""
@@ -189,11 +191,15 @@ class DriverNode(WorldNode):
             super().on_realtime_tick()
             if self.state is not WorldState.RUNNING:
                 break
-        for event in self.fleet.take_events():
-            self.get_logger().warning(event)
+        self.log_events()
         self.send_commands(stop=self.state is not WorldState.RUNNING)
         if self.state is WorldState.FINISHED:
             self.write_driver_record()
+
+    def log_events(self) -> None:
+        """Log the faults the fleet found since the last call."""
+        for event in self.fleet.take_events():
+            self.get_logger().warning(event)
 
     def send_commands(self, stop: bool = False) -> None:
         """Each robot's latest command (or a stop) as a link frame."""

@@ -36,6 +36,8 @@ class RobotLink:
     dropouts: int = 0  #: times the tracker lost it after seeing it
     held_steps: int = 0  #: steps it was held still
     malformed: int = 0  #: telemetry frames whose payload did not decode
+    low: bool = False  #: its battery reads below the threshold
+    low_battery: int = 0  #: times its battery fell below the threshold
     foreign: int = 0  #: frames not telemetry or from an id outside the episode
 
 
@@ -48,14 +50,17 @@ class Fleet:
             nonce as a new host and accepts its sequence afresh).
         silent_after: seconds without fresh telemetry after which a robot is silent.
         tracker_timeout: seconds without a valid tracked pose after which it is lost.
+        battery_low: mV below which a robot's battery counts as low (counted and logged, the
+            robot not held: a slow robot is still a robot).
     """
 
     def __init__(self, population: int, host_nonce: int, silent_after: float,
-                 tracker_timeout: float) -> None:
+                 tracker_timeout: float, battery_low: int = 0) -> None:
         self.robots = [RobotLink(i) for i in range(population)]
         self.host_nonce = host_nonce & 0xFFFF
         self.silent_after = silent_after
         self.tracker_timeout = tracker_timeout
+        self.battery_low = battery_low
         self.events: list[str] = []  #: what happened since the last :meth:`take_events`
 
     def receive(self, frame: Frame, now: float) -> Telemetry | None:
@@ -77,6 +82,12 @@ class Fleet:
         if verdict == REBOOT:
             self.events.append(f'robot {link.robot} rebooted (boot nonce {frame.nonce})')
         link.telemetry, link.heard = telemetry, now
+        low = telemetry.battery_mv < self.battery_low
+        if low and not link.low:
+            link.low_battery += 1
+            self.events.append(f'robot {link.robot} battery low: {telemetry.battery_mv} mV < '
+                               f'{self.battery_low} mV')
+        link.low = low
         return telemetry
 
     def tracked(self, valid: np.ndarray, now: float) -> None:
@@ -131,8 +142,8 @@ class Fleet:
                 'duplicated': stream.duplicated, 'reordered': stream.reordered,
                 'reboots': stream.reboots, 'stale': stream.stale, 'malformed': link.malformed,
                 'foreign': link.foreign, 'silences': link.silences, 'dropouts': link.dropouts,
-                'held_steps': link.held_steps, 'silent': link.silent, 'lost_by_tracker':
-                link.lost, 'battery_mv': None if link.telemetry is None else
-                link.telemetry.battery_mv,
+                'held_steps': link.held_steps, 'low_battery': link.low_battery,
+                'silent': link.silent, 'lost_by_tracker': link.lost,
+                'battery_mv': None if link.telemetry is None else link.telemetry.battery_mv,
                 'rx_rejected': None if link.telemetry is None else link.telemetry.rx_rejected})
         return rows

@@ -51,6 +51,10 @@ FIRMWARE = REPO / 'firmware'
 IR_CHANNELS = (3, 2, 1, 0, 7)
 #: Simulated microseconds per emulator tick.
 TICK_US = 20_000
+#: The battery's ADC channel and divider (firmware/mona/src/pins.h, sensors.h).
+BATTERY_CHANNEL, BATTERY_DIVIDER = 6, 2
+#: An emulated robot's battery (one Li-ion cell, charged).
+BATTERY_MV = 3900
 #: Encoder edges per metre of wheel travel: MonaMk2's 980 ticks per revolution (docs/link.md)
 #: on a 32 mm wheel (a guess; unverified on the classic Mona).
 EDGES_PER_METRE = 980 / (math.pi * 0.032)
@@ -109,6 +113,14 @@ class Window:
     def covers(self, robot: int, t: float) -> bool:
         """Whether the fault is on for ``robot`` at ``t``."""
         return robot == self.robot and self.start <= t < self.start + self.length
+
+
+def parse_battery(text: str) -> tuple[Window, int]:
+    """``ROBOT@START=MV``: the robot's battery reads MV from START on."""
+    when, _, mv = text.partition('=')
+    if not mv.isdigit():
+        raise argparse.ArgumentTypeError(f'{text!r}: expected ROBOT@START=MV, e.g. 2@5=3300')
+    return parse_window(when), int(mv)
 
 
 def parse_window(text: str) -> Window:
@@ -273,6 +285,16 @@ class Arena:
         t = time.monotonic() - self.episode_wall
         return any(window.covers(robot, t) for window in faults)
 
+    def battery(self, robot: int) -> int:
+        """The robot's battery now (mV): the last ``--battery`` setting due, else charged."""
+        mv = BATTERY_MV
+        if self.episode_wall is not None:
+            t = time.monotonic() - self.episode_wall
+            for window, level in self.options.battery:
+                if window.robot == robot and t >= window.start:
+                    mv = level
+        return mv
+
     def tick(self, now: float) -> None:
         """One emulator tick: links in, firmwares run TICK_US, robots move, links out."""
         n = len(self.firmwares)
@@ -297,9 +319,11 @@ class Arena:
                     for w in self.options.reboot):
                 self.rebooted.add(i)
                 commands.append('reset')
-            adc = tuple(self.calibration.millivolts(self.calibration.to_adc(ranges[i])))
+            adc = (*self.calibration.millivolts(self.calibration.to_adc(ranges[i])),
+                   self.battery(i) // BATTERY_DIVIDER)
             if adc != self.adc_sent[i]:
-                commands += [f'adc {ch} {mv}' for ch, mv in zip(IR_CHANNELS, adc)]
+                commands += [f'adc {ch} {mv}' for ch, mv in
+                             zip((*IR_CHANNELS, BATTERY_CHANNEL), adc)]
                 self.adc_sent[i] = adc
             for side, column in (('L', 0), ('R', 1)):
                 whole = int(self.edges[i, column])
@@ -378,6 +402,8 @@ def parser() -> argparse.ArgumentParser:
         help='its radio dead (no frame either way) from T for D s')
     add('--dropout', type=parse_window, action='append', default=[], metavar='ROBOT@T+D',
         help='the tracker does not see it from T for D s')
+    add('--battery', type=parse_battery, action='append', default=[], metavar='ROBOT@T=MV',
+        help='its battery reads MV from T on (a sag; default 3900 mV)')
     add('--seed', type=int, default=0, help='seed of the link loss and the tracker noise')
     return p
 

@@ -44,6 +44,9 @@ class DriverParams:
     robot_margin: float = param(0.02, unit='m', low=0.0, high=1.0,
                                 doc='a beam sees a robot if the point it reports is within '
                                     "this of another tracked robot's body (tracker error)")
+    battery_low: int = param(3400, unit='mV', low=0, high=20000,
+                             doc='a battery below this is counted and logged (the robot goes '
+                                 'on, slower; an unmeasured threshold for one Li-ion cell)')
     poll_period: float = param(0.005, unit='s (wall)', low=0.001, high=1.0,
                                doc='how often the links are read')
 
