@@ -170,8 +170,9 @@ class DriverNode(WorldNode):
     # --- stepping -----------------------------------------------------------------------
 
     def on_realtime_tick(self) -> None:
-        """Step as many steps as the host clock says are due (at least one, at most
-        MAX_CATCH_UP), holding the faulty robots, then send every robot its command."""
+        """Step as many steps as the host clock says are due (none if the tick came early,
+        at most MAX_CATCH_UP), holding the faulty robots, then send every robot its
+        command."""
         now = self.now()
         period = self.params.step_period
         if self.world.steps == 0 or self.step_origin is None:
@@ -184,7 +185,7 @@ class DriverNode(WorldNode):
                                       f'stall; {MAX_CATCH_UP} taken, sim time is '
                                       f'{(due - MAX_CATCH_UP) * period:.3f} s behind the host '
                                       'clock from here', throttle_duration_sec=5.0)
-        for _ in range(max(1, min(due, MAX_CATCH_UP))):
+        for _ in range(max(0, min(due, MAX_CATCH_UP))):
             held = self.fleet.held(now)[:self.world.population]
             self.world.held = held
             self.fleet.count_held(held)
