@@ -150,6 +150,10 @@ def telemetry(robot: int, seq: int, nonce: int, ir=(1023,) * 5, battery=3700) ->
 def test_the_fleet_holds_silent_and_lost_robots_and_counts_every_fault():
     fleet = Fleet(2, host_nonce=0xBEEF, silent_after=0.5, tracker_timeout=0.5)
     assert fleet.held(0.0).tolist() == [True, True]  # nothing heard, nothing seen yet
+    assert fleet.take_events() == ['robot 0 held: no telemetry and a tracked pose yet',
+                                   'robot 1 held: no telemetry and a tracked pose yet']
+    fleet.held(0.05)
+    assert fleet.take_events() == []  # said once
     for seq in range(3):
         assert fleet.receive(telemetry(0, seq, 7), 0.1 + seq * 0.05) is not None
         fleet.receive(telemetry(1, seq, 9), 0.1 + seq * 0.05)
@@ -189,6 +193,8 @@ def test_commands_carry_the_host_nonce_and_a_rising_sequence():
 def test_a_low_battery_is_counted_once_and_logged_and_the_robot_goes_on():
     fleet = Fleet(1, host_nonce=1, silent_after=0.5, tracker_timeout=0.5, battery_low=3400)
     fleet.tracked(np.array([True]), 0.0)
+    fleet.held(0.0)  # tracked, but no telemetry yet: held, and said so
+    assert fleet.take_events() == ['robot 0 held: no telemetry yet']
     for seq, mv in enumerate((3800, 3390, 3380, 3390)):
         fleet.receive(telemetry(0, seq, 7, battery=mv), 0.05 * seq)
     assert fleet.held(0.2).tolist() == [False]

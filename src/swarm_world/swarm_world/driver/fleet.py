@@ -37,6 +37,7 @@ class RobotLink:
     held_steps: int = 0  #: steps it was held still
     malformed: int = 0  #: telemetry frames whose payload did not decode
     low: bool = False  #: its battery reads below the threshold
+    never_said: bool = True  #: held before it was ever heard and seen, not yet logged
     low_battery: int = 0  #: times its battery fell below the threshold
     foreign: int = 0  #: frames not telemetry or from an id outside the episode
 
@@ -109,6 +110,13 @@ class Fleet:
                 link.dropouts += 1
                 self.events.append(f'robot {link.robot} lost by the tracker for '
                                    f'{self.tracker_timeout:g} s; stopped, absent')
+            if (silent or lost) and link.never_said and (link.heard is None
+                                                          or link.seen is None):
+                link.never_said = False
+                missing = ' and '.join(name for name, absent in (
+                    ('telemetry', link.heard is None), ('a tracked pose', link.seen is None))
+                    if absent)
+                self.events.append(f'robot {link.robot} held: no {missing} yet')
             if link.silent and not silent or link.lost and not lost:
                 if not silent and not lost:
                     self.events.append(f'robot {link.robot} back: telemetry and pose')
