@@ -150,8 +150,8 @@ def telemetry(robot: int, seq: int, nonce: int, ir=(1023,) * 5, battery=3700) ->
 def test_the_fleet_holds_silent_and_lost_robots_and_counts_every_fault():
     fleet = Fleet(2, host_nonce=0xBEEF, silent_after=0.5, tracker_timeout=0.5)
     assert fleet.held(0.0).tolist() == [True, True]  # nothing heard, nothing seen yet
-    assert fleet.take_events() == ['robot 0 held: no telemetry and a tracked pose yet',
-                                   'robot 1 held: no telemetry and a tracked pose yet']
+    assert fleet.take_events() == ['robot 0 held: no telemetry and no tracked pose yet',
+                                   'robot 1 held: no telemetry and no tracked pose yet']
     fleet.held(0.05)
     assert fleet.take_events() == []  # said once
     for seq in range(3):

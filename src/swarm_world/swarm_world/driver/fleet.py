@@ -113,8 +113,8 @@ class Fleet:
             if (silent or lost) and link.never_said and (link.heard is None
                                                           or link.seen is None):
                 link.never_said = False
-                missing = ' and '.join(name for name, absent in (
-                    ('telemetry', link.heard is None), ('a tracked pose', link.seen is None))
+                missing = ' and no '.join(name for name, absent in (
+                    ('telemetry', link.heard is None), ('tracked pose', link.seen is None))
                     if absent)
                 self.events.append(f'robot {link.robot} held: no {missing} yet')
             if link.silent and not silent or link.lost and not lost:

@@ -51,6 +51,8 @@ FIRMWARE = REPO / 'firmware'
 IR_CHANNELS = (3, 2, 1, 0, 7)
 #: Simulated microseconds per emulator tick.
 TICK_US = 20_000
+#: The longest physics step (s), and the longest wall gap between ticks that is moved.
+MAX_DT, MAX_GAP = 0.02, 0.5
 #: The battery's ADC channel and divider (firmware/mona/src/pins.h, sensors.h).
 BATTERY_CHANNEL, BATTERY_DIVIDER = 6, 2
 #: An emulated robot's battery (one Li-ion cell, charged).
@@ -63,6 +65,10 @@ USAGE_ERROR = 2
 
 class HilError(Exception):
     """A setting or a missing tool that stops the harness before it starts (exit 2)."""
+
+
+class FirmwareError(Exception):
+    """A firmware process that ended or crashed while the harness ran (exit 1)."""
 
 
 @dataclass(order=True)
@@ -143,17 +149,24 @@ class Firmware:
                                         text=True, bufsize=1)
         self.pwm = (0, 0, 0, 0, 0)  # pwm_l, dir_l, pwm_r, dir_r, cleaner
         self.tx = bytearray()
+        self.pending: list[str] = []
 
-    def exchange(self, commands: list[str]) -> None:
-        """Send the commands; read the events up to each command's end (``T``)."""
-        assert self.process.stdin and self.process.stdout
+    def send(self, commands: list[str]) -> None:
+        """Send the commands (the process runs them while the others run theirs)."""
+        assert self.process.stdin
         self.process.stdin.write(''.join(f'{c}\n' for c in commands))
         self.process.stdin.flush()
+        self.pending = commands
+
+    def collect(self) -> None:
+        """Read the events up to the end (``T``) of each command sent."""
+        assert self.process.stdout
+        commands = self.pending
         done = 0
         while done < len(commands):
             line = self.process.stdout.readline()
             if not line:
-                raise HilError('monasim ended: ' + ' '.join(commands[:3]))
+                raise FirmwareError('monasim ended: ' + ' '.join(commands[:3]))
             kind = line[0]
             if kind == 'T':
                 done += 1
@@ -163,7 +176,7 @@ class Firmware:
                 fields = line.split()
                 self.pwm = tuple(int(v) for v in fields[2:7])  # type: ignore[assignment]
             elif kind == 'E':
-                raise HilError(f'the firmware crashed: {line.strip()}')
+                raise FirmwareError(f'the firmware crashed: {line.strip()}')
 
     def frames(self) -> list[bytes]:
         """The whole frames the firmware has transmitted so far (bytes between are dropped)."""
@@ -260,6 +273,7 @@ class Arena:
         self.edges = np.zeros((n, 2))
         self.rebooted: set[int] = set()
         self.last_tracker = 0.0
+        self.last_tick: float | None = None
         # Load the compiled kernels now: a first call in a tick would stall the firmwares.
         warm = np.array([[0.5, 0.5, 0.0], [0.7, 0.5, 0.0]])
         proximity(warm, mona.body_radius, self.bearings, mona.ir_range, world.arena_side,
@@ -331,7 +345,11 @@ class Arena:
                     commands.append(f'enc {side} {whole} {max(1, TICK_US // (whole + 1))}')
                     self.edges[i, column] -= whole
             commands.append(f'run {TICK_US}')
-            firmware.exchange(commands)
+            firmware.send(commands)
+        # The firmwares run their ticks in parallel (one process each); then take the results.
+        for i, firmware in enumerate(self.firmwares):
+            silent = self.faulty(self.options.silence, i)
+            firmware.collect()
             pwm_l, dir_l, pwm_r, dir_r, _ = firmware.pwm
             speeds[i] = [pwm_to_permille(pwm_l, bool(dir_l), self.options.deadband),
                          pwm_to_permille(pwm_r, bool(dir_r), self.options.deadband)]
@@ -342,12 +360,18 @@ class Arena:
                 for frame in self.up[i].due(now):
                     self.sockets[i].sendto(frame, self.host[i])
         speeds *= self.full_speed / 1000.0
-        dt = TICK_US / 1e6
+        # The robots move in wall time, as real ones do, also when the firmwares lag it (a
+        # loaded machine): the wheels hold their PWM between ticks. Sub-steps of at most
+        # MAX_DT keep the collisions sound; a stall longer than MAX_GAP is not made up.
+        dt = TICK_US / 1e6 if self.last_tick is None else min(now - self.last_tick, MAX_GAP)
+        self.last_tick = now
         self.edges += np.abs(speeds) * dt * EDGES_PER_METRE
-        if self.physics is not None:
+        if self.physics is not None and dt > 0:
             left, right = speeds[:, 0], speeds[:, 1]
-            self.physics.step((left + right) / 2, (right - left) / self.mona.wheel_separation,
-                              dt)
+            linear, angular = (left + right) / 2, (right - left) / self.mona.wheel_separation
+            steps = max(1, math.ceil(dt / MAX_DT))
+            for _ in range(steps):
+                self.physics.step(linear, angular, dt / steps)
 
     def tracker_poses(self, now: float) -> np.ndarray | None:
         """The tracker's view now, with noise and dropouts (NaN rows), or None between
@@ -433,6 +457,9 @@ def main(args: Sequence[str] | None = None) -> int:
     except HilError as error:
         print(f'driver_hil: {error}', file=sys.stderr)
         return USAGE_ERROR
+    except FirmwareError as error:
+        print(f'driver_hil: {error}', file=sys.stderr)
+        return 1
 
 
 def run(options: argparse.Namespace, extra: list[str], stop: dict) -> int:
@@ -474,6 +501,7 @@ def run(options: argparse.Namespace, extra: list[str], stop: dict) -> int:
             if now < next_tick:
                 tracker.spin(next_tick - now)
                 continue
+            tracker.spin(0.0)  # also when behind: the announcements must get through
             next_tick = max(next_tick + TICK_US / 1e6, now - 0.1)  # never a burst of ticks
             arena.tick(now)
             ticks += 1
