@@ -401,7 +401,8 @@ def parser() -> argparse.ArgumentParser:
         prog='driver_hil', description=__doc__.split('\n')[0],
         epilog='Everything after -- goes to driver_node (e.g. -- -p recorders:=metrics). Exit '
                "status: the driver's when it ends by itself (0: the run was shut down); 0 "
-               'when stopped by SIGINT or SIGTERM; 2 for a bad option or a missing tool.')
+               'when stopped by SIGINT or SIGTERM; 1 if a firmware process dies; 2 for a bad '
+               'option or a missing tool.')
     add = p.add_argument
     add('--robots', type=int, required=True, metavar='N', help='emulated Monas (ids 0..N-1)')
     add('--params-file', type=Path, required=True, metavar='YAML',
