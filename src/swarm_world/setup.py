@@ -21,6 +21,8 @@ setup(
     entry_points={
         'console_scripts': [
             'world_node = swarm_world.world_node:main',
+            'driver_node = swarm_world.driver.driver_node:main',
+            'driver_hil = swarm_world.driver.hil:main',
         ],
     },
 )

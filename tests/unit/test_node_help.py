@@ -15,6 +15,7 @@ from mona_controller.node_help import own_args
 
 BIN = Path(sys.executable).parent
 NODES = {'world_node': [str(BIN / 'world_node')],
+         'driver_node': [str(BIN / 'driver_node')],
          'metrics_node': [str(BIN / 'metrics_node')],
          'supervisor_node': [str(BIN / 'supervisor_node')],
          'mona_controller_node': [str(BIN / 'mona_controller_node')],

@@ -151,27 +151,32 @@ class ControllerNode(Node):
         if self.episode is not None and self.episode.key == announcement.key:
             return  # the same announcement again (e.g. redelivered): keep the state
         self.episode = announcement
-        self.active = self.robot_id < announcement.population
+        refused = self._parameter_differences(announcement.parameters)
+        self.active = self.robot_id < announcement.population and not refused
         self.controller.reset(announcement.seed)
-        self._check_parameters(announcement.parameters)
+        if refused:
+            # Refused: this robot takes no part (it answers no readings), so the world or
+            # driver sees it absent; the reason is logged once per episode.
+            self.get_logger().error(
+                f'episode {announcement.episode} refused: the episode announces other '
+                'parameters than this node runs: ' + '; '.join(refused)
+                + ': start every node with the same --params-file; this robot takes no part')
         self.get_logger().info(f'episode {announcement.episode}: seed {announcement.seed}, '
                                f'start {announcement.start_ns} ns, '
-                               + ('active' if self.active else 'not in this population'))
+                               + ('refused' if refused else
+                                  'active' if self.active else 'not in this population'))
         self._publish(self.pairs.start(announcement.start_ns))
 
-    def _check_parameters(self, announced: dict) -> None:
-        """Warn when the supervisor runs other model parameters than this node."""
+    def _parameter_differences(self, announced: dict) -> list[str]:
+        """The announced ``mona`` and ``controller`` keys whose values differ from this node's,
+        as parameters (defaults applied: a file that leaves a key at its default runs the same
+        model as one that spells it out), one line per key with both values."""
+        differ: list[str] = []
         for section, mine in (('mona', self.mona), ('controller', self.params)):
             theirs = announced.get(section)
-            if theirs is None:
-                continue
-            # As parameters (defaults applied): a file that leaves a key at its default
-            # runs the same model as one that spells it out.
-            differ = differences(mine, theirs, f'{section}.')
-            if differ:
-                self.get_logger().error(
-                    f'the episode announces other {section} parameters than this node runs: '
-                    + '; '.join(differ) + ': start every node with the same --params-file')
+            if theirs is not None:
+                differ += differences(mine, theirs, f'{section}.')
+        return differ
 
     def on_ground(self, msg: Image) -> None:
         """A ground-sensor image: the two readings, or a one-line warning if it is malformed."""
