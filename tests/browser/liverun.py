@@ -25,7 +25,6 @@ class LiveRun:
                                         start_new_session=True)
         self.lines: list[str] = []
         self.url = ''          # the live view's ws:// URL, once printed
-        self.lingers = False   # started with --linger: serves on after the episode
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
 
@@ -79,16 +78,3 @@ def accepts_legacy_subprotocol(url: str) -> bool:
             return socket.subprotocol == LEGACY_SUBPROTOCOL
     except (InvalidHandshake, OSError):
         return False
-
-
-def require_legacy_subprotocol(url: str) -> None:
-    """xfail (not fail) while the live view refuses the web build's subprotocol: issue 23's
-    item 4, built apart from these tests; passes through once the server accepts it."""
-    if not accepts_legacy_subprotocol(url):
-        pytest.xfail(f'the live view at {url} refuses the subprotocol {LEGACY_SUBPROTOCOL}, '
-                     "the only one Foxglove's web build 1.48.0 offers")
-
-
-def supports_linger(help_text: str) -> bool:
-    """Whether a command's --help offers ``--linger`` (keep serving after the episode)."""
-    return '--linger' in help_text

@@ -12,7 +12,6 @@ and the status, no problems. A layout with wrong topic names fails exactly those
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -21,7 +20,7 @@ import pytest
 from checks import Expected, plots_of, settle
 from conftest import LAYOUT
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import LiveRun, require_legacy_subprotocol, supports_linger
+from liverun import LEGACY_SUBPROTOCOL, LiveRun, accepts_legacy_subprotocol
 from shown import expected_at
 
 pytestmark = pytest.mark.slow
@@ -38,14 +37,11 @@ MONA_SWARM = Path(sys.executable).parent / 'mona-swarm'
 def run(data_dir: Path) -> Iterator[LiveRun]:
     """The paced episode with its live view and bag (``data_dir/embedded``), lingering after
     the episode until the module is done (then Ctrl-C)."""
-    linger = supports_linger(subprocess.run([str(MONA_SWARM), 'run', '--help'], text=True,
-                                            capture_output=True, check=True).stdout)
     live = LiveRun([str(MONA_SWARM), 'run', '--population', str(POPULATION), '--seed',
                     str(SEED), '--duration', str(DURATION), '--out',
                     str(data_dir / 'embedded'), '--bag', '--live', '--port', '0', '--pace',
-                    str(PACE), *(['--linger', '900'] if linger else [])])
+                    str(PACE), '--linger', '900'])
     live.url = live.wait_for('live view on ws://', 120).split('live view on ')[1].split()[0]
-    live.lingers = linger
     try:
         yield live
     finally:
@@ -54,11 +50,8 @@ def run(data_dir: Path) -> Iterator[LiveRun]:
 
 
 def episode_ended(run: LiveRun, timeout: float = 300.0) -> None:
-    """Until the episode's outputs are written (the run lingers, or it has exited)."""
-    if run.lingers:
-        run.wait_for('the episode has ended', timeout)
-    else:
-        run.process.wait(timeout)
+    """Until the episode's outputs are written (then the run lingers)."""
+    run.wait_for('the episode has ended', timeout)
 
 
 @pytest.fixture(scope='module')
@@ -75,7 +68,8 @@ def expected(bag: Path) -> Expected:
 
 def test_the_live_view_shows_the_episode_and_keeps_it_after_the_end(browser, server, shots,
                                                                      run):
-    require_legacy_subprotocol(run.url)
+    # The web build offers only the older subprotocol name; the live view must take it.
+    assert accepts_legacy_subprotocol(run.url), LEGACY_SUBPROTOCOL
     live = Expected(population=POPULATION, seed=SEED, mode='embedded', plots=plots_of(LAYOUT))
     app = FoxgloveApp(browser, shots)
     try:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import shutil
 import signal
 import socket
-import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,7 +19,7 @@ import pytest
 from checks import Expected, plots_of, settle
 from conftest import LAYOUT, REPO
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import require_legacy_subprotocol, supports_linger
+from liverun import LEGACY_SUBPROTOCOL, accepts_legacy_subprotocol
 from shown import expected_at
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
@@ -48,16 +47,12 @@ def free_port() -> int:
 def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SwarmRun]:
     """The lockstep run with its live view, lingering after the episode until the module is
     done (then Ctrl-C, which must end it with status 0)."""
-    launch_help = subprocess.run([sys.executable, '-m', 'swarm_supervisor.cli', 'launch',
-                                  '--help'], text=True, capture_output=True).stdout
     port = free_port()
     swarm = SwarmRun(tmp_path_factory.mktemp('nodes') / 'run',
                      ['--population', str(POPULATION), '--duration', str(DURATION), '--seed',
                       str(SEED), '--mode', 'lockstep', '--config', str(OBSTACLES), '--live',
-                      '--live-port', str(port),
-                      *(['--linger', '900'] if supports_linger(launch_help) else [])])
+                      '--live-port', str(port), '--linger', '900'])
     swarm.url = f'ws://127.0.0.1:{port}'
-    swarm.lingers = supports_linger(launch_help)
     try:
         yield swarm
         if swarm.process.poll() is None:
@@ -69,11 +64,8 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SwarmRun]:
 
 
 def run_done(run: SwarmRun, timeout: float = 300.0) -> None:
-    """Until the episode's bag is closed (the run lingers, or the script has exited)."""
-    if run.lingers:
-        run.wait_for(lambda: DONE in run.stderr, 'the end of the run', timeout)
-    else:
-        run.wait(timeout)
+    """Until the episode's bag is closed (then the live view lingers)."""
+    run.wait_for(lambda: DONE in run.stderr, 'the end of the run', timeout)
 
 
 @pytest.fixture(scope='module')
@@ -87,7 +79,7 @@ def bag(run: SwarmRun, data_dir: Path) -> Path:
 def test_the_live_view_shows_the_node_system_and_keeps_it_after_the_end(browser, server,
                                                                          shots, run):
     run.wait_for(lambda: 'live view on ws://' in run.log('live'), 'the live view')
-    require_legacy_subprotocol(run.url)
+    assert accepts_legacy_subprotocol(run.url), LEGACY_SUBPROTOCOL  # the web build's only one
     live = Expected(population=POPULATION, seed=SEED, mode='lockstep', plots=plots_of(LAYOUT),
                     obstacle_area=PILLARS)
     app = FoxgloveApp(browser, shots)
