@@ -118,6 +118,15 @@ class Run:
         found = [poses for _, when, poses in self.probe.poses if when == stamp]
         return (found[-1] if last else found[0]) if found else None
 
+    def poses_near(self, stamp: int):
+        """The /world/poses of this stamp, else the nearest within a step (a realtime driver
+        may stamp its tracked poses apart from its readings); None if none is that near."""
+        exact = self.poses_at(stamp)
+        if exact is not None or not self.probe.poses:
+            return exact
+        gap, poses = min((abs(when - stamp), poses) for _, when, poses in self.probe.poses)
+        return poses if gap <= self.step_ns else None
+
     def maps(self, k: int, name: str = 'cue_map') -> list:
         """Episode ``k``'s latched ``name`` messages (cue_map, cue_grid): stamped in its window
         and received after its announcement and before the next one's (an episode's last map

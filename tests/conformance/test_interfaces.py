@@ -101,7 +101,7 @@ def test_ground_is_the_cue_under_the_left_and_the_right_wheel(run):
     checked, sloped = 0, 0
     for robot in range(POPULATION):
         for _, stamp, msg in run.readings(robot, 'ground', 0):
-            poses = run.poses_at(stamp)
+            poses = run.poses_near(stamp)
             if poses is None or stamp >= first_tick:
                 continue
             left, right = (cue_at(cue, point, run.world['cell_size'])
@@ -149,7 +149,7 @@ def compare_beams(run, episode: int):
     angles = bearings(run.mona['ir_count'], run.mona['ir_span'])
     for robot in range(POPULATION):
         for _, stamp, msg in run.readings(robot, 'proximity', episode):
-            poses = run.poses_at(stamp)
+            poses = run.poses_near(stamp)
             if poses is None:
                 continue
             yield robot, stamp, list(msg.ranges), list(msg.intensities), beams(
