@@ -31,7 +31,7 @@ class Implementation:
 IMPLEMENTATIONS: dict[str, Implementation] = {
     # The simulated world node; a short deadline so the absent-robot rules cost little time.
     'world': Implementation('world_node --ros-args --params-file {params} '
-                            '-p lockstep_deadline:=0.3 -p absent_after:=3'),
+                            '-p lockstep_deadline:=0.5 -p absent_after:=3'),
     # The same node stepping on the wall clock, as a driver for real robots does.
     'world-realtime': Implementation('world_node --ros-args --params-file {params} '
                                      '-p mode:=realtime -p absent_after:=3', mode='realtime'),

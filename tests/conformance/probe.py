@@ -11,7 +11,7 @@ and 4 by this probe:
 - **episode 0** (the rules' episode): robot 3 subscribes to its readings only 1 s after the
   announcement, answers step 0 only after 2.5 s, answers step 10 once stamped for another
   step, then rightly, then again (a duplicate with another speed), answers step 20 after
-  0.15 s, and cleans from step 30; robot 4 answers steps 0-4 (cleaner on at step 4), is
+  0.1 s, and cleans from step 30; robot 4 answers steps 0-4 (cleaner on at step 4), is
   silent from step 5 and answers again from step 60.
 - **episode 1**: announced with another ``mona.ir_range``: the world must refuse it.
 - **episode 2**: a short episode at other poses, from the world's time then.
@@ -53,7 +53,7 @@ DURATION_0, DURATION_2 = 3.0, 0.5
 ROBOT3_LISTENS_AFTER = 1.0  #: wall s after the announcement
 ROBOT3_STEP0_DELAY = 2.5  #: wall s robot 3 keeps step 0 waiting
 ROBOT3_WRONG_STEP, ROBOT3_SLOW_STEP, ROBOT3_CLEANS_FROM = 10, 20, 30
-ROBOT3_SLOW_DELAY = 0.15
+ROBOT3_SLOW_DELAY = 0.1
 ROBOT4_SILENT = range(5, 60)
 ROBOT4_CLEANER_STEP = 4
 
