@@ -10,8 +10,9 @@ and 4 by this probe:
 
 - **episode 0** (the rules' episode): robot 3 subscribes to its readings only 1 s after the
   announcement, answers step 0 only after 2.5 s, answers step 10 once stamped for another
-  step, then rightly, then again (a duplicate with another speed), answers step 20 after
-  0.1 s, and cleans from step 30; robot 4 answers steps 0-4 (cleaner on at step 4), is
+  step, then rightly, then again (a duplicate with another speed), answers step 31 (the
+  first cleaning tick's) after 0.1 s turning its cleaner on, and drives at 5 cm/s for steps
+  40-49; robot 4 answers steps 0-4 (cleaner on at step 4), is
   silent from step 5 and answers again from step 60.
 - **episode 1**: announced with another ``mona.ir_range``: the world must refuse it.
 - **episode 2**: a short episode at other poses, from the world's time then.
@@ -52,8 +53,12 @@ DURATION_0, DURATION_2 = 3.0, 0.5
 
 ROBOT3_LISTENS_AFTER = 1.0  #: wall s after the announcement
 ROBOT3_STEP0_DELAY = 2.5  #: wall s robot 3 keeps step 0 waiting
-ROBOT3_WRONG_STEP, ROBOT3_SLOW_STEP, ROBOT3_CLEANS_FROM = 10, 20, 30
+#: Robot 3 turns its cleaner on with its (late: the last) answer to the step that reaches the
+#: first cleaning tick (31 x 32 ms -> 32 x 32 ms crosses 1 s).
+ROBOT3_WRONG_STEP, ROBOT3_SLOW_STEP, ROBOT3_CLEANS_FROM = 10, 31, 31
 ROBOT3_SLOW_DELAY = 0.1
+ROBOT3_DRIVES = range(40, 50)  #: robot 3 drives forward at ROBOT3_SPEED for these steps
+ROBOT3_SPEED = 0.05
 ROBOT4_SILENT = range(5, 60)
 ROBOT4_CLEANER_STEP = 4
 
@@ -178,7 +183,8 @@ class Probe(Node):
             return
         cleaner = first and ((robot == 3 and step >= ROBOT3_CLEANS_FROM)
                              or (robot == 4 and step == ROBOT4_CLEANER_STEP))
-        commands = [(stamp, 0.0)]
+        commands = [(stamp, ROBOT3_SPEED if first and robot == 3 and step in ROBOT3_DRIVES
+                         else 0.0)]
         delay = 0.0
         if first and robot == 3:
             if step == 0:

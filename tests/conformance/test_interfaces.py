@@ -20,7 +20,9 @@ from probe import (
     POSES_0,
     POSES_2,
     ROBOT3_CLEANS_FROM,
+    ROBOT3_DRIVES,
     ROBOT3_SLOW_STEP,
+    ROBOT3_SPEED,
     ROBOT3_STEP0_DELAY,
     ROBOT4_CLEANER_STEP,
     ROBOT4_SILENT,
@@ -225,6 +227,38 @@ def test_lockstep_waits_for_every_robots_cmd_vel_stamped_t_k(run):
         assert arrivals and min(arrivals) > sent, robot
 
 
+def test_a_cmd_vel_stamped_with_the_readings_it_answers_drives_the_robot(run):
+    """`cmd_vel`: `twist.linear.x` (m/s), `twist.angular.z` (rad/s); `header.stamp` = **the
+    stamp of the sensor readings it answers** (lockstep key). Robot 3 answers steps 40-49
+    at 5 cm/s and holds still otherwise: it moves that far along its heading, no more."""
+    start = run.window(0)[0]
+    first, last = ROBOT3_DRIVES[0], ROBOT3_DRIVES[-1] + 1
+    before, after = (run.poses_near(start + k * run.step_ns) for k in (first, last + 2))
+    assert before is not None and after is not None
+    moved = after[3, :2] - before[3, :2]
+    heading = np.array([math.cos(before[3, 2]), math.sin(before[3, 2])])
+    expected = ROBOT3_SPEED * len(ROBOT3_DRIVES) * run.step_ns / 1e9
+    tolerance = 0.1 * expected + run.implementation.pose_tolerance
+    assert abs(moved @ heading - expected) <= tolerance, (moved, expected)
+    assert abs(moved @ np.array([-heading[1], heading[0]])) <= tolerance, moved
+
+
+@pytest.mark.lockstep
+def test_cleaner_is_applied_with_the_cmd_vel_of_the_same_step(run):
+    """The controller answers each pair ... first `cleaner`, then `cmd_vel`: the cleaner a
+    robot publishes before its `cmd_vel` counts for that step (robot 3 turns it on with its
+    answer to step 31, the last answer of the round, and step 31 reaches the first cleaning
+    tick)."""
+    start = run.window(0)[0]
+    tick = start + (ROBOT3_CLEANS_FROM + 1) * run.step_ns
+    period = round(run.world['cleaning_period'] * 1e9)
+    assert (tick - start) // period > (tick - start - run.step_ns) // period  # the first tick
+    events = [poses for _, stamp, poses in run.probe.cleaning if stamp == tick]
+    assert events, f'no /world/cleaning at the first tick ({tick} ns)'
+    robot3 = np.array(POSES_0[3][:2])
+    assert any(np.hypot(*(p[:2] - robot3)) < 0.01 for p in events[0]), events[0]
+
+
 @pytest.mark.lockstep
 def test_step_0_waits_and_its_readings_are_repeated_until_answered(run):
     """Step 0 itself may take up to `start_timeout`, and its readings are repeated every 0.2 s
@@ -274,16 +308,16 @@ def test_an_absent_robots_cleaner_is_off(run):
     silent_from = start + (ROBOT4_SILENT[0] + 3) * run.step_ns
     silent_to = start + ROBOT4_SILENT[-1] * run.step_ns
     assert ROBOT4_CLEANER_STEP < ROBOT4_SILENT[0]
-    robot3 = np.array(POSES_0[3][:2])
     saw_robot3 = False
     for _, stamp, poses in run.probe.cleaning:
-        if not start <= stamp <= run.window(0)[1]:
+        current = run.poses_near(stamp)
+        if not start <= stamp <= run.window(0)[1] or current is None:
             continue
-        near4 = [p for p in poses if np.hypot(*(p[:2] - np.array(POSES_0[4][:2]))) < 0.01]
+        near = [int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses]
         if silent_from <= stamp <= silent_to:
-            assert not near4, f'absent robot 4 cleaned at {stamp}'
+            assert 4 not in near, f'absent robot 4 cleaned at {stamp}'
         if stamp > start + ROBOT3_CLEANS_FROM * run.step_ns:
-            saw_robot3 |= any(np.hypot(*(p[:2] - robot3)) < 0.01 for p in poses)
+            saw_robot3 |= 3 in near
     assert saw_robot3, "robot 3's cleaner never showed in /world/cleaning"
 
 
