@@ -152,6 +152,24 @@ class Run:
         return ended[-1]
 
 
+def start_world(processes: Processes, template: str, domain: int):
+    """Start the implementation's command line; a command that cannot be started ends the
+    session with a message naming what is wrong (exit status 2), not a traceback."""
+    try:
+        command = shlex.split(template.format(domain=domain, params=PARAMS,
+                                              population=POPULATION))
+    except (KeyError, IndexError, ValueError) as error:
+        pytest.exit(f'--world-cmd {template!r}: {error!r}; the placeholders are {{domain}}, '
+                    '{params} and {population}', returncode=2)
+    if not command:
+        pytest.exit('--world-cmd is empty', returncode=2)
+    try:
+        return processes.spawn(command, 'world')
+    except OSError as error:
+        pytest.exit(f'--world-cmd: cannot start {command[0]!r}: {error.strerror}',
+                    returncode=2)
+
+
 @pytest.fixture(scope='session')
 def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Run:
     """Start the implementation and the controllers, play the scenario, stop everything."""
@@ -165,8 +183,7 @@ def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
         for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY'):
             patch.delenv(key, raising=False)
         processes = Processes(env, folder)
-        command = chosen.command.format(domain=domain, params=PARAMS, population=POPULATION)
-        world = processes.spawn(shlex.split(command), 'world')
+        world = start_world(processes, chosen.command, domain)
         robots = f'{CONTROLLED[0]}-{CONTROLLED[-1]}'
         controllers = processes.spawn(['mona_controller_node', '--robots', robots,
                                        '--ros-args', '--params-file', str(PARAMS)],
@@ -178,6 +195,10 @@ def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
         scenario = Scenario(probe, executor, lambda: world.poll() is None)
         try:
             scenario.run()
+            if not probe.status and world.poll() is not None:
+                pytest.exit(f'{name}: the implementation exited with status {world.poll()} '
+                            f'before its first /world/status:\n'
+                            f'{processes.log("world")[-3000:]}', returncode=1)
             deadline = time.monotonic() + EXIT_TIMEOUT
             while time.monotonic() < deadline and (world.poll() is None
                                                    or controllers.poll() is None):
