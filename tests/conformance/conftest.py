@@ -25,7 +25,15 @@ from rclpy.executors import SingleThreadedExecutor
 
 from harness import REPO, Processes, private_domain, ros_environment
 from implementations import IMPLEMENTATIONS, Implementation, resolve
-from probe import CONTROLLED, POPULATION, Probe, Scenario, init_context, spin_briefly
+from probe import (
+    CONTROLLED,
+    POPULATION,
+    Probe,
+    Scenario,
+    init_context,
+    spin_briefly,
+    stamp_of,
+)
 
 #: The suite's parameter file: the shipped one, every section.
 PARAMS = REPO / 'ros_ws' / 'config' / 'mona_swarm.yaml'
@@ -130,15 +138,14 @@ class Run:
         return poses if gap <= self.step_ns else None
 
     def maps(self, k: int, name: str = 'cue_map') -> list:
-        """Episode ``k``'s latched ``name`` messages (cue_map, cue_grid): stamped in its window
+        """Episode ``k``'s ``name`` messages (cue_map, cue_grid, markers): stamped in its window
         and received after its announcement and before the next one's (an episode's last map
         and the next one's first may share a stamp)."""
         low, high = self.window(k)
         after = self.scenario.marks.get(f'announced_{k}', 0.0)
         before = self.scenario.marks.get(f'announced_{k + 2 if k == 0 else k + 1}', math.inf)
         return [msg for when, msg in self.probe.latched[name]
-                if after <= when < before
-                and low <= msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec <= high]
+                if after <= when < before and low <= stamp_of(msg) <= high]
 
     def statuses(self, k: int) -> list[dict]:
         """The /world/status documents of episode ``k``, in arrival order."""

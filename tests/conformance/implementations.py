@@ -25,6 +25,9 @@ class Implementation:
     pose_tolerance: float = 1e-6
     range_tolerance: float = 1e-4
     cue_tolerance: float = 2.5  #: cue units (a cell's value rounded to mono8)
+    #: Its publishing periods of sim time (the world node's defaults; docs/interfaces.md).
+    status_period: float = 1.0
+    map_period: float = 1.0
 
 
 #: name -> implementation; the first is the default.

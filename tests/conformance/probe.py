@@ -77,6 +77,13 @@ def ns_of(stamp) -> int:
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
+def stamp_of(msg) -> int:
+    """A message's stamp (ns); a MarkerArray's is its first marker's (-1 if empty)."""
+    if hasattr(msg, 'markers'):
+        return stamp_of(msg.markers[0]) if msg.markers else -1
+    return ns_of(msg.header.stamp)
+
+
 def poses_of(msg: PoseArray) -> np.ndarray:
     """[N, 3] (x, y, yaw) of a PoseArray (yaw from the z-axis quaternion)."""
     return np.array([[p.position.x, p.position.y,

@@ -27,6 +27,7 @@ from probe import (
     ROBOT4_CLEANER_STEP,
     ROBOT4_SILENT,
     SCRIPTED,
+    stamp_of,
 )
 
 pytestmark = pytest.mark.ros
@@ -442,11 +443,49 @@ def test_cue_grid_is_the_same_raster_scaled_to_0_100_from_the_world_origin(run):
     assert np.abs(values - image.astype(float) * 100 / 255).max() <= 1.0
 
 
-def test_markers_one_cylinder_per_robot(run):
-    """`/world/markers`: `visualization_msgs/MarkerArray`, one cylinder per robot."""
-    arrays = [msg for _, msg in run.probe.latched['markers'] if len(msg.markers) == POPULATION]
-    assert arrays, 'no marker array with one marker per robot'
-    assert all(m.type == 3 for m in arrays[-1].markers)  # CYLINDER
+def test_markers_one_cylinder_per_robot_green_moving_red_cleaning(run):
+    """`/world/markers`: `visualization_msgs/MarkerArray`, every `map_period`: one cylinder
+    per robot, green moving, red cleaning (at the end of episode 0 robot 3 cleans, robot 4
+    does not)."""
+    arrays = [msg for msg in run.maps(0, 'markers') if len(msg.markers) == POPULATION]
+    assert arrays, 'no marker array with one marker per robot in episode 0'
+    last = arrays[-1]
+    assert all(m.type == 3 for m in last.markers)  # CYLINDER
+    poses = run.poses_near(stamp_of(last))
+    assert poses is not None
+    colour = {}
+    for marker in last.markers:
+        where = np.array([marker.pose.position.x, marker.pose.position.y])
+        robot = int(np.argmin(np.hypot(*(poses[:, :2] - where).T)))
+        colour[robot] = 'red' if marker.color.r > marker.color.g else 'green'
+    assert len(colour) == POPULATION
+    assert colour[3] == 'red' and colour[4] == 'green', colour
+
+
+def test_cue_map_and_markers_every_map_period(run):
+    """`/world/cue_map` every `map_period` of sim time, `/world/markers` every `map_period`
+    (episode 0: one at least in each period)."""
+    low, high = run.window(0)
+    period = round(run.implementation.map_period * 1e9)
+    stamps = {name: sorted(stamp_of(msg) for msg in run.maps(0, name))
+              for name in ('cue_map', 'markers')}
+    for name, found in stamps.items():
+        for k in range(1, (high - low) // period + 1):
+            boundary = low + k * period
+            assert any(boundary <= t < boundary + period for t in found), (name, k, found)
+
+
+def test_status_each_status_period_while_running(run):
+    """`/world/status`: on every change of episode state, each `status_period` of sim time
+    (episode 0: one at least in each period while it runs)."""
+    low, high = run.window(0)
+    period = round(run.implementation.status_period * 1e9)
+    times = [doc.get('time_ns') for doc in run.statuses(0)  # the last period's: 'finished'
+             if doc.get('state') in ('running', 'finished')
+             and isinstance(doc.get('time_ns'), int)]
+    for k in range(1, (high - low) // period + 1):
+        boundary = low + k * period
+        assert any(boundary <= t < boundary + period for t in times), (k, times)
 
 
 def test_obstacles_latched_once_and_empty_without_obstacles(run):
