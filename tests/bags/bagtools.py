@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter, offered_qos
+from swarm_metrics.world_cdr import sources_cdr, states_cdr
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
 from swarm_world.timing import crossed
@@ -28,6 +29,8 @@ TOPICS = {'/episode': (STRING, offered_qos(1, latched=True)),
           '/world/poses': (POSE_ARRAY, offered_qos(10)),
           '/world/cleaning': (POSE_ARRAY, offered_qos(100)),
           '/world/cue_map': (IMAGE, offered_qos(1, latched=True)),
+          '/world/robot_states': ('std_msgs/msg/UInt8MultiArray', offered_qos(1000)),
+          '/world/sources': ('visualization_msgs/msg/MarkerArray', offered_qos(1, latched=True)),
           **{f'/metrics/{name}': (FLOAT64, offered_qos(10)) for name in METRICS}}
 
 
@@ -111,7 +114,13 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
         announced = announcement(config, world.poses, start_ns)
         bag.describe(announced)
         write('/episode', start_ns, string_cdr(json.dumps(announced)))
-        write('/world/cue_map', start_ns, image_cdr(world.cue, start_ns))
+        def cue_map(ns: int) -> None:  # with the sources where they are
+            write('/world/cue_map', ns, image_cdr(world.cue, ns))
+            write('/world/sources', ns, sources_cdr(
+                world.field.names, world.field.source_positions(world.time_ns / 1e9), ns))
+
+        cue_map(start_ns)
+        write('/world/robot_states', start_ns, states_cdr(episode.controllers.state))
         for name in METRICS:
             write(f'/metrics/{name}', start_ns, float_cdr(rows[0][name]))
         cleaning_events = 0
@@ -124,6 +133,8 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
             if step.sampled or all_poses:
                 write('/world/poses', now, pose_array_cdr(world.poses, now))
             if step.sampled:
+                write('/world/robot_states', now, states_cdr(episode.controllers.state))
+            if step.sampled:
                 rows.append(episode.metrics())
                 for name in METRICS:
                     write(f'/metrics/{name}',
@@ -133,11 +144,11 @@ def embedded_episode_bag(path: Path, config: SwarmConfig, *, start_ns: int = 7 *
                     {'episode': 0, 'state': 'running', 'time_ns': now,
                      'cleaning_events': cleaning_events})))
             if crossed(step.before_ns, step.time_ns, map_ns):
-                write('/world/cue_map', now, image_cdr(world.cue, now))
+                cue_map(now)
         if finished:
             end = start_ns + world.time_ns
             if not crossed(world.time_ns - 1, world.time_ns, map_ns):
-                write('/world/cue_map', end, image_cdr(world.cue, end))  # the world's last map
+                cue_map(end)  # the world's last map
             write('/world/status', end, string_cdr(json.dumps(
                 finished_status(config, config.steps(), end, cleaning_events))))
     return rows

@@ -21,6 +21,7 @@ from swarm_metrics.metrics import metric_names
 from swarm_supervisor import study
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config
+from swarm_world.params import WorldParams
 
 from bagtools import embedded_episode_bag
 
@@ -46,6 +47,12 @@ DAMAGE = {
     'lost_cleaning_event': ({'drop': lambda topic, ns: topic == '/world/cleaning'
                              and at(7.5) < ns < at(8.5)},
                             'cue_maps', 'the first at t = 8 s'),
+    'lost_robot_states': ({'drop': lambda topic, ns: topic == '/world/robot_states'
+                           and at(4.5) < ns < at(5.5)},
+                          'robot_states', '1 of 21 sampled times (t = 0 and each recorded '
+                                          'pose) have no states, the first at t = 5'),
+    'no_sources_at_t0': ({'drop': lambda topic, ns: topic == '/world/sources' and ns == at(0)},
+                         'sources', 'no /world/sources at t = 0 (the first at t = 2'),
 }
 
 
@@ -121,6 +128,8 @@ def test_analyze_refuses_an_incomplete_bag_and_allow_incomplete_records_why(bags
         assert failed == ['finished']  # nothing else is wrong with that bag
     if name == 'lost_cleaning_event':
         assert 'samples' not in failed and 'finished' not in failed
+    if name in ('lost_robot_states', 'no_sources_at_t0'):
+        assert failed == [check]  # the metrics are whole
 
 
 def test_a_bag_without_its_announcement_cannot_be_analysed(tmp_path):
@@ -280,3 +289,32 @@ def test_findings_round_trip_and_are_ordered_by_check():
     assert str(findings[1]) == 'finished (b): y'
     with pytest.raises(ValueError):
         Finding.from_dict({'check': 'samples'})
+
+
+def test_sources_must_be_where_the_announced_parameters_put_them():
+    world = WorldParams(sources={'a': [1.0, 1.0, 0.3, 255.0]},
+                        source_velocity={'a': [0.01, 0.0]})
+    where = completeness.announced_sources(world)
+    recorded = [(at(t), where(t)) for t in (0.0, 10.0, 20.0)]
+    assert completeness.check_sources(recorded, where, START_NS) == []
+    assert where(10.0)[0][1:] == pytest.approx((1.1, 1.0))  # it moves at 1 cm/s
+    # A message of another time (a stale latched one) or a source that did not move.
+    stale = [recorded[0], (at(10.0), where(0.0)), recorded[2]]
+    (finding,) = completeness.check_sources(stale, where, START_NS)
+    assert finding.check == 'sources' and '1 of 3' in finding.detail
+    assert 'the first at t = 10 s' in finding.detail
+    assert completeness.check_sources([], where, START_NS)[0].detail.endswith('none recorded)')
+
+
+def test_robot_states_need_one_known_code_per_robot():
+    pose_times = [at(1.0), at(2.0)]
+    good = [(at(t), [0, 2, 3]) for t in (0.0, 1.0, 2.0)]
+    assert completeness.check_states(good, pose_times, START_NS, 3) == []
+    (short,) = completeness.check_states(good[:1] + [(at(1.0), [0, 2])] + good[2:],
+                                         pose_times, START_NS, 3)
+    assert 'at t = 1 s are [0, 2]: expected 3 codes below 4' in short.detail
+    (unknown,) = completeness.check_states(good[:2] + [(at(2.0), [0, 9, 1])], pose_times,
+                                           START_NS, 3)
+    assert '[0, 9, 1]' in unknown.detail
+    (missing,) = completeness.check_states(good[1:], pose_times, START_NS, 3)
+    assert 'the first at t = 0 s' in missing.detail

@@ -1,9 +1,10 @@
 """One record format: the embedded runner's bag (``mona-swarm run --bag``) against the bag the
 metrics node records of a lockstep run of scripts/swarm.sh with the same seed.
 
-Same topics, types, offered QoS and custom_data; identical poses, cleaning events and metrics,
-decoded once with rosbags and once with an independent decoder (mcap + mcap-ros2-support);
-also with moving leaks and with a command latency (``mona.command_latency``).
+Same topics, types, offered QoS and custom_data; identical poses, the controllers' states,
+cleaning events, cue maps, sources and metrics, decoded once with rosbags and once with an
+independent decoder (mcap + mcap-ros2-support); also with moving leaks and with a command
+latency (``mona.command_latency``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics_node import MetricsNodeParams
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.engine.runner import run_episode
-from swarm_supervisor.outputs.bag import ROBOT_STATES, TOPICS, BagOptions, record_episode
+from swarm_supervisor.outputs.bag import TOPICS, BagOptions, record_episode
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import CONFIG, SwarmRun  # noqa: E402
@@ -33,9 +34,11 @@ from swarmrun import CONFIG, SwarmRun  # noqa: E402
 pytestmark = pytest.mark.ros
 
 POPULATION, DURATION, SEED = 8, 16.0, 1
+ROBOT_STATES, SOURCES = topics.ROBOT_STATES, topics.SOURCES
 #: What the comparison covers: everything but the world's status documents (the embedded
-#: one says mode "embedded") and the embedded-only robot states.
+#: one says mode "embedded").
 COMPARED = ('/world/poses', '/world/cleaning', '/world/cue_map', '/episode', '/world/obstacles',
+            ROBOT_STATES, SOURCES,
             *(f'/metrics/{name}' for name in ('mean_cue', 'mean_cue_fraction',
                                               'ratio_near_source', 'coherency')))
 
@@ -77,9 +80,14 @@ def plain(topic: str, msg) -> object:
     if topic == '/world/cue_map':
         return ((msg.header.stamp.sec, msg.header.stamp.nanosec), msg.height, msg.width,
                 msg.encoding, bytes(msg.data))
-    if topic == '/world/obstacles':  # empty here: these runs have no obstacles
-        return [(m.ns, m.id, m.type, m.text, m.pose.position.x, m.pose.position.y, m.scale.x,
-                 m.scale.y, [(p.x, p.y) for p in m.points]) for m in msg.markers]
+    if topic in ('/world/obstacles', SOURCES):  # no obstacles here; the sources move
+        return [(m.ns, m.id, m.type, m.text, (m.header.stamp.sec, m.header.stamp.nanosec),
+                 m.pose.position.x, m.pose.position.y, m.pose.position.z, m.scale.x,
+                 m.scale.y, (m.color.r, m.color.g, m.color.b, m.color.a),
+                 [(p.x, p.y) for p in m.points]) for m in msg.markers]
+    if topic == ROBOT_STATES:
+        return bytes(msg.data), [(d.label, d.size, d.stride) for d in msg.layout.dim], \
+            msg.layout.data_offset
     if topic == '/episode':
         document = json.loads(msg.data)
         return {key: value for key, value in document.items() if key != 'start_ns'}
@@ -98,13 +106,12 @@ def test_the_embedded_bag_has_the_metrics_node_topics_types_and_qos(bags):
 
     node_topics, node_custom = connections(node_bag)
     embedded_topics, embedded_custom = connections(embedded_bag)
-    # Both bags hold the contract's recorded topics with its types and QoS; only the
-    # embedded runner publishes /world/robot_states.
+    # Both bags hold the contract's recorded topics with its types and QoS, the robots'
+    # states and the sources included.
     assert embedded_topics == {topic: (msgtype, [offered])
                                for topic, (msgtype, offered) in TOPICS.items()}
-    assert topics.TOPICS[ROBOT_STATES].publisher == topics.EMBEDDED
-    assert set(embedded_topics) == set(node_topics) | {ROBOT_STATES}
-    assert {t: embedded_topics[t] for t in node_topics} == node_topics
+    assert {ROBOT_STATES, SOURCES} <= set(node_topics)
+    assert embedded_topics == node_topics
     assert set(embedded_custom) == set(node_custom)
     for key in ('mona_swarm.seed', 'mona_swarm.population', 'mona_swarm.duration',
                 'mona_swarm.parameters'):
@@ -119,9 +126,15 @@ def test_both_runners_record_identical_poses_cleaning_and_metrics_mcap_decoder(b
     # Not two idle worlds: the robots moved and cleaned.
     assert len(node['/world/cleaning']) > 0
     assert len(node['/world/poses']) == int(DURATION)
-    states = [np.frombuffer(bytes(m.data), np.uint8) for _, m in embedded[ROBOT_STATES]]
+    # The controller nodes' states, gathered by the world: at t = 0, each sampled pose and
+    # the end, as the embedded runner's.
+    states = [np.frombuffer(bytes(m.data), np.uint8) for _, m in node[ROBOT_STATES]]
     assert len(states) == int(DURATION) + 1 and all(len(s) == POPULATION for s in states)
     assert {int(s) for row in states for s in row} >= {0, 2}  # some followed, some waited
+    assert [t for t, _ in node[ROBOT_STATES]][1:] == [t for t, _ in node['/world/poses']]
+    # The sources as often as the cue map: t = 0, the first map at or after 10 s, the end.
+    assert [t for t, _ in node[SOURCES]] == [t for t, _ in node['/world/cue_map']]
+    assert [t // 10**10 for t, _ in node[SOURCES]] == [0, 1, 1]
 
 
 def rosbags_messages(bag: Path) -> dict[str, list[tuple[int, object]]]:
@@ -188,6 +201,9 @@ def test_a_moving_leaking_field_records_the_same_bag_in_both_runners(leak_bags, 
     maps = [np.frombuffer(bytes(m.data), np.uint8) for _, m in node['/world/cue_map']]
     assert len(node['/world/cleaning']) > 0 and len(maps) >= 3
     assert not np.array_equal(maps[1], maps[-1])  # the field evolved
+    where = [[(m.text, m.pose.position.x, m.pose.position.y) for m in msg.markers]
+             for _, msg in node[SOURCES]]
+    assert [name for name, _, _ in where[0]] == ['east', 'west'] and where[0] != where[-1]
     # The record stays checkable: analyze rebuilds every cue map from the cleaning record
     # and the announced parameters (diffusion, evaporation, emission, motion) exactly.
     result = subprocess.run([sys.executable, '-m', 'swarm_supervisor.cli', 'analyze',

@@ -10,10 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from mona_controller.contract import CLEANING, EPISODE, POSES, STATUS
+from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
 from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import McapScan, find_mcap, read_episode_bag
 from swarm_metrics.recording import Recorder, float64_cdr
+from swarm_metrics.world_cdr import states_from_cdr
 from swarm_supervisor.config import load_config
 
 from bagtools import embedded_episode_bag, string_cdr
@@ -28,6 +29,9 @@ def world_messages(tmp_path_factory) -> tuple[list[tuple[str, bytes]], list[dict
     rows = embedded_episode_bag(path, CONFIG, map_period=4.0)
     messages = [(m.topic, m.data) for m in McapScan(find_mcap(path))
                 if not m.topic.startswith('/metrics/')]
+    # The bag keeps the states of t = 0 but not its pose (t = 0's sample is the
+    # announcement's): the world sent both, so feed neither.
+    messages.remove(next(m for m in messages if m[0] == ROBOT_STATES))
     return messages, rows
 
 
@@ -154,3 +158,37 @@ def test_a_status_that_comes_before_its_announcement_counts(world_messages, tmp_
         else:
             published += recorder.route(topic, data)
     assert len(published) >= len(rows) - 1  # every sample but the last was taken on the way
+
+
+@pytest.mark.parametrize('first', [POSES, ROBOT_STATES])
+def test_robot_states_are_paired_with_their_poses_whichever_comes_first(world_messages,
+                                                                         tmp_path, first):
+    """/world/robot_states has no stamp: the recorder pairs the n-th with the n-th poses and
+    records it at that pose's time, whichever of the two topics' messages arrives first."""
+    messages, _ = world_messages
+    kinds = [topic for topic, _ in messages]
+    pairs = [i for i in range(len(kinds) - 1) if kinds[i:i + 2] == [POSES, ROBOT_STATES]]
+    assert len(pairs) == kinds.count(ROBOT_STATES) > 10  # the bag has poses, then states
+    if first == ROBOT_STATES:  # each states message before its poses, as the world sends
+        messages = list(messages)
+        for i in pairs:
+            messages[i], messages[i + 1] = messages[i + 1], messages[i]
+    recorder = make_recorder(tmp_path)
+    feed(recorder, messages)
+    assert recorder.done()
+    closed, _ = recorder.close()
+    assert closed.problems == ()
+    bag = read_episode_bag(closed.path)
+    sent = [states_from_cdr(data).tobytes() for topic, data in messages
+            if topic == ROBOT_STATES]
+    assert [row.tobytes() for _, row in bag.states] == sent
+    assert [t for t, _ in bag.states] == [t for t, _ in bag.poses]  # at the poses' times
+    assert len({row.tobytes() for _, row in bag.states}) > 1  # not one state repeated
+
+
+def test_a_record_without_robot_states_says_so(world_messages, tmp_path):
+    messages, _ = world_messages
+    recorder = make_recorder(tmp_path)
+    feed(recorder, [m for m in messages if m[0] != ROBOT_STATES])
+    closed, _ = recorder.close()
+    assert any('no /world/robot_states' in problem for problem in closed.problems)

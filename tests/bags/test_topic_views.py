@@ -83,10 +83,9 @@ def test_the_metrics_node_subscribes_to_the_tables_recorded_topics(context, tmp_
     node = MetricsNode(context=context, parameter_overrides=overrides)
     try:
         assert set(node.handlers) == set(RECORDED) | set(RECORDED_ALL)
-        # The recorded topics that another node publishes: all but its own and the
-        # embedded-only ones.
+        # The recorded topics that another node publishes: all but its own.
         assert set(RECORDED) == {name for name, t in topics.recorded().items()
-                                 if t.publisher not in (topics.METRICS, topics.EMBEDDED)}
+                                 if t.publisher != topics.METRICS}
         world_wide = [n for n in RECORDED_ALL if not TOPICS[n].per_robot]
         assert endpoints(node.subscriptions) == as_table([*RECORDED, *world_wide])
         node._subscribe_robots(2)  # what an announcement of N = 2 does with record_all
@@ -104,7 +103,7 @@ def test_the_live_node_forwards_the_tables_live_topics(context):
     try:
         assert set(node.server.channels) == set(NODE_TOPICS)
         assert endpoints(node.subscriptions) == as_table(NODE_TOPICS)
-        assert topics.ROBOT_STATES not in NODE_TOPICS  # only the embedded runner has it
+        assert {topics.ROBOT_STATES, topics.SOURCES} <= set(NODE_TOPICS)  # from the world
     finally:
         node.server.stop()
         node.destroy_node()

@@ -11,6 +11,7 @@ from std_msgs.msg import Float64, String
 
 from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
+from mona_controller.mona import MonaParams
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.world_cdr import (
     STATE_COLOURS,
@@ -21,13 +22,24 @@ from swarm_metrics.world_cdr import (
     markers_cdr,
     obstacles_cdr,
     pose_array_cdr,
+    sources_cdr,
     states_cdr,
     states_from_cdr,
     string_cdr,
 )
 from swarm_supervisor.outputs.bag import status_json
 from swarm_world.arena import Arena, Disc, Polygon, Rect
-from swarm_world.world_messages import PoseArrayFiller, cue_grid, cue_image, obstacle_markers
+from swarm_world.arena_markers import SPHERE, sources_from_markers
+from swarm_world.field import CueField
+from swarm_world.params import WorldParams
+from swarm_world.world_messages import (
+    PoseArrayFiller,
+    cue_grid,
+    cue_image,
+    obstacle_markers,
+    robot_states,
+    source_markers,
+)
 
 pytestmark = pytest.mark.ros
 NS = 12_345_678_901
@@ -100,3 +112,39 @@ def test_obstacle_markers_are_rclpy_bytes():
         assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
             TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)
     assert obstacles_cdr(Arena(2.85)) == bytes(serialize_message(obstacle_markers(Arena(2.85))))
+
+
+def test_robot_states_are_rclpy_bytes():
+    """The world node's /world/robot_states and the embedded runner's: the same bytes."""
+    for states in (np.array([0, 1, 2, 3, 2], dtype=np.int8), np.zeros(0, dtype=np.int8),
+                   np.full(50, 2, dtype=np.int8)):
+        assert states_cdr(states) == bytes(serialize_message(robot_states(states)))
+        assert states_from_cdr(states_cdr(states)).tolist() == states.tolist()
+
+
+def test_source_markers_are_rclpy_bytes_and_move_with_the_sources():
+    """/world/sources of the world node and of the embedded runner: the same message, one
+    sphere per source (name order) where CueField puts it at the stamp's time."""
+    world = WorldParams(sources={'west': [0.8, 2.0, 0.5, 255.0], 'east': [2.1, 0.9, 0.6, 255.0]},
+                        source_velocity={'west': [0.02, -0.01]},
+                        source_path={'east': [0.03, 2.1, 1.9, 1.5, 1.4]})
+    field = CueField(world, MonaParams())
+    msgtype = 'visualization_msgs/msg/MarkerArray'
+    shown = []
+    for t in (0.0, 7.5, 30.0):
+        positions = field.source_positions(t)
+        ours = sources_cdr(field.names, positions, NS)
+        theirs = bytes(serialize_message(source_markers(field.names, positions, NS)))
+        assert len(ours) == len(theirs)
+        assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
+            TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)
+        markers = TYPESTORE.deserialize_cdr(ours, msgtype).markers
+        assert [(m.ns, m.id, m.type, m.header.frame_id) for m in markers] == \
+            [('sources', 0, SPHERE, 'world'), ('sources', 1, SPHERE, 'world')]
+        assert {(m.header.stamp.sec, m.header.stamp.nanosec) for m in markers} == \
+            {(12, 345_678_901)}
+        shown.append(sources_from_markers(markers))
+        assert shown[-1] == tuple((name, x, y) for name, (x, y)
+                                  in zip(field.names, positions.tolist()))
+    assert [s[0] for s in shown[0]] == ['east', 'west']
+    assert shown[0] != shown[1] != shown[2]  # they move

@@ -11,11 +11,11 @@ from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, String, UInt8
 
 from mona_controller import qos
 from mona_controller.contract import Announcement
-from mona_controller.controller import ControllerParams
+from mona_controller.controller import FOLLOW, WAIT, ControllerParams
 from mona_controller.controller_node import ControllerNode, parse_robots
 from mona_controller.controllers import controller_class
 from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
@@ -47,6 +47,8 @@ class Driver(Node):
             TwistStamped, qos.robot_topic(robot, qos.CMD_VEL), self._on_cmd, qos.COMMAND_QOS)
         self.create_subscription(Bool, qos.robot_topic(robot, qos.CLEANER), self._on_cleaner,
                                  qos.CLEANER_QOS)
+        self.create_subscription(UInt8, qos.robot_topic(robot, qos.STATE), self._on_state,
+                                 qos.STATE_QOS)
         self.warnings: list[str] = []  # the controller's warnings, from /rosout
         self.create_subscription(Log, '/rosout', self._on_log, 100)
         self.ground_msg = ground_image(robot)
@@ -58,6 +60,9 @@ class Driver(Node):
 
     def _on_cleaner(self, msg: Bool, info) -> None:
         self.received.append((info['source_timestamp'], 'cleaner', msg.data))
+
+    def _on_state(self, msg: UInt8, info) -> None:
+        self.received.append((info['source_timestamp'], 'state', msg.data))
 
     def _on_log(self, msg: Log) -> None:
         if msg.name == f'mona_{self.robot}.mona_controller' and msg.level == Log.WARN:
@@ -87,7 +92,7 @@ class Driver(Node):
     def answered(self, n: int) -> bool:
         """Both halves of ``n`` answers arrived."""
         kinds = [kind for _, kind, _ in self.received]
-        return kinds.count('cmd') >= n and kinds.count('cleaner') >= n
+        return all(kinds.count(kind) >= n for kind in ('cmd', 'cleaner', 'state'))
 
     def commands(self) -> list[tuple[int, float, float]]:
         return [value for kind, value in self.answers if kind == 'cmd']
@@ -130,8 +135,9 @@ def test_answers_each_reading_once_with_its_stamp_and_the_eq2_turn(pair, spin_un
     left, right = min(max(left, 0), mona.max_wheel_command), min(right, mona.max_wheel_command)
     assert v1 == pytest.approx((left + right) / 2 * mona.wheel_unit_speed)
     assert w1 == pytest.approx((right - left) * mona.wheel_unit_speed / mona.wheel_separation)
-    # Every answer is a cleaner followed by its cmd_vel, nothing else.
-    assert [kind for kind, _ in driver.answers] == ['cleaner', 'cmd'] * 3
+    # Every answer is a state, a cleaner, then its cmd_vel, nothing else.
+    assert [kind for kind, _ in driver.answers] == ['state', 'cleaner', 'cmd'] * 3
+    assert [v for kind, v in driver.answers if kind == 'state'] == [FOLLOW] * 3
 
 
 def test_readings_before_the_announcement_are_answered_after_it(pair, spin_until):
@@ -154,13 +160,14 @@ def test_meeting_a_robot_stops_and_cleans_and_a_new_episode_resets(pair, spin_un
     driver.send(START_NS, ground=(200, 200), ranges=robot_ahead,
                 is_robot=np.isfinite(robot_ahead))
     spin_until(lambda: driver.answered(1), what='answer')
-    assert driver.answers[-2:] == [('cleaner', True), ('cmd', (START_NS, 0.0, 0.0))]
+    assert driver.answers[-3:] == [('state', WAIT), ('cleaner', True),
+                                   ('cmd', (START_NS, 0.0, 0.0))]
 
     driver.announce(seed=8, episode=1, start_ns=START_NS + 10 * STEP_NS)
     spin_until(lambda: controller.episode.episode == 1, what='second announcement')
     driver.send(START_NS + 10 * STEP_NS, ground=(200, 200))
     spin_until(lambda: driver.answered(2), what='answer in episode 1')
-    assert driver.answers[-2] == ('cleaner', False)  # following again, not waiting
+    assert driver.answers[-3:-1] == [('state', FOLLOW), ('cleaner', False)]  # not waiting
     assert driver.commands()[1][1] > 0
 
 
@@ -184,7 +191,7 @@ def test_bad_sensor_values_give_finite_commands(pair, spin_until):
     assert all(math.isfinite(x) for x in first[1:] + second[1:])
     assert second[1:] == (0.0, 0.0)
     # The repaired scan still shows the robot in contact (-inf and -1 m became 0 m).
-    assert driver.answers[0] == ('cleaner', True)
+    assert driver.answers[:2] == [('state', WAIT), ('cleaner', True)]
 
 
 def test_a_repeat_of_an_older_answered_stamp_gets_its_answer_again(pair, spin_until):
@@ -209,7 +216,8 @@ def test_a_ground_image_of_2_x_1_is_answered_with_a_stop(pair, spin_until):
     driver.ground_msg.height, driver.ground_msg.width, driver.ground_msg.step = 2, 1, 1
     driver.send(START_NS, ground=(200, 100))
     spin_until(lambda: driver.answered(1), what='answer')
-    assert driver.answers == [('cleaner', False), ('cmd', (START_NS, 0.0, 0.0))]
+    assert driver.answers == [('state', FOLLOW), ('cleaner', False),
+                              ('cmd', (START_NS, 0.0, 0.0))]
 
 
 def test_each_kind_of_bad_input_is_logged(pair, spin_until):

@@ -28,7 +28,7 @@ def test_each_entry_is_well_formed():
         assert re.fullmatch(r'[a-z_]+_msgs/msg/[A-Za-z0-9]+', topic.type), topic.type
         assert topic.qos.depth >= 1 and topic.doc
         assert topic.publisher in (topics.WORLD, topics.CONTROLLER, topics.SUPERVISOR,
-                                   topics.METRICS, topics.EMBEDDED)
+                                   topics.METRICS)
         assert not (topic.per_robot and topic.recorded)  # per-robot topics: record_all only
     assert [t.name for t in TOPICS.values() if t.per_metric] == [topics.METRICS_PREFIX]
 

@@ -31,6 +31,8 @@ from mona_controller.topics import (  # noqa: F401
     PROXIMITY,
     RECORDERS,
     ROBOT_STATES,
+    SOURCES,
+    STATE,
     STATUS,
     TOPICS,
     QoS,

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, String, UInt8
 
 from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
@@ -47,9 +47,9 @@ from mona_controller.shutdown import teardown
 #: Wall seconds between checks that a world (or driver) listens to our commands.
 LISTEN_POLL = 0.02
 
-#: The answer to a pair of readings: (cleaner, linear m/s, angular rad/s).
-Answer = tuple[bool, float, float]
-STOP: Answer = (False, 0.0, 0.0)
+#: The answer to a pair of readings: (cleaner, linear m/s, angular rad/s, the controller's
+#: state after it).
+Answer = tuple[bool, float, float, int]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,11 +106,14 @@ class ControllerNode(Node):
         self.warn = RateLimitedLog(lambda text: self.get_logger().warning(f'bad input: {text}'))
 
         self.cleaner_msg = Bool()
+        self.state_msg = UInt8()
         self.twist_msg = TwistStamped()
         self.twist_msg.header.frame_id = qos.base_frame(self.robot_id)
         quiet_pub, quiet_sub = qos.QUIET_PUBLISHER, qos.QUIET_SUBSCRIPTION
         self.cleaner_pub = self.create_publisher(Bool, qos.CLEANER, qos.CLEANER_QOS,
                                                  event_callbacks=quiet_pub)
+        self.state_pub = self.create_publisher(UInt8, qos.STATE, qos.STATE_QOS,
+                                               event_callbacks=quiet_pub)
         self.cmd_pub = self.create_publisher(TwistStamped, qos.CMD_VEL, qos.COMMAND_QOS,
                                              event_callbacks=quiet_pub)
         self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS,
@@ -197,18 +200,23 @@ class ControllerNode(Node):
         if not self.active:
             return None
         if ground is None or scan is None:
-            return STOP  # unusable readings: hold still
+            return False, 0.0, 0.0, int(self.controller.state[0])  # unusable: hold still
         now = (stamp - self.episode.start_ns) / 1e9
         command = self.controller.step(ground, scan[0], scan[1], now)
         linear, angular = wheels_to_twist(command.wheels, self.mona)
-        return bool(command.cleaner[0]), float(linear[0]), float(angular[0])
+        return (bool(command.cleaner[0]), float(linear[0]), float(angular[0]),
+                int(self.controller.state[0]))
 
     def _publish(self, answers: list[tuple[int, Answer | None]]) -> None:
-        """Send each answer: ``cleaner``, then ``cmd_vel`` stamped with the readings' stamp."""
+        """Send each answer: ``state``, ``cleaner``, then ``cmd_vel`` stamped with the
+        readings' stamp (the world takes the state and the cleaner as they are when the
+        command arrives)."""
         for stamp, answer in answers:
             if answer is None:
                 continue
-            cleaner, linear, angular = answer
+            cleaner, linear, angular, state = answer
+            self.state_msg.data = state
+            self.state_pub.publish(self.state_msg)
             self.cleaner_msg.data = cleaner
             self.cleaner_pub.publish(self.cleaner_msg)
             if not fill_twist(self.twist_msg, stamp, linear, angular):

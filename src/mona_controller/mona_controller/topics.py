@@ -24,6 +24,7 @@ GROUND = 'ground'
 PROXIMITY = 'proximity'
 CMD_VEL = 'cmd_vel'
 CLEANER = 'cleaner'
+STATE = 'state'
 
 # World, supervisor, recorders and metrics (absolute).
 CLOCK = '/clock'
@@ -35,6 +36,7 @@ MARKERS = '/world/markers'
 OBSTACLES = '/world/obstacles'
 STATUS = '/world/status'
 ROBOT_STATES = '/world/robot_states'
+SOURCES = '/world/sources'
 EPISODE = '/episode'
 RECORDERS = '/recorders'
 METRICS_PREFIX = '/metrics/'
@@ -44,7 +46,6 @@ WORLD = 'world'  #: the world node, or a real robot's driver
 CONTROLLER = 'controller'  #: each robot's controller node
 SUPERVISOR = 'supervisor'
 METRICS = 'metrics'  #: the metrics node (and the embedded runner's bag recorder)
-EMBEDDED = 'embedded'  #: the embedded runner only: no node publishes it
 
 _ROBOT_TOPIC = re.compile(r'/mona_\d+/([^/]+)')
 
@@ -99,6 +100,10 @@ TOPICS: dict[str, Topic] = {topic.name: topic for topic in (
     # The cleaning actuator is a state: a late joiner gets the latest one.
     _topic(CLEANER, 'std_msgs/msg/Bool', 1, CONTROLLER, 'the cleaning actuator',
            latched=True),
+    # The behaviour behind the answer, for observers: a state like the cleaner (the world
+    # keeps each robot's latest and gathers them on /world/robot_states).
+    _topic(STATE, 'std_msgs/msg/UInt8', 1, CONTROLLER,
+           "the controller's state after its latest answer", latched=True),
     # The ROS clock QoS (rclpy's time source subscribes best effort, depth 1).
     _topic(CLOCK, 'rosgraph_msgs/msg/Clock', 1, WORLD, 'sim time', reliable=False,
            recorded=True, live=True),
@@ -124,8 +129,14 @@ TOPICS: dict[str, Topic] = {topic.name: topic for topic in (
            live=True),
     _topic(STATUS, 'std_msgs/msg/String', 1, WORLD, "the world's status (JSON)",
            latched=True, recorded=True, live=True),
-    _topic(ROBOT_STATES, 'std_msgs/msg/UInt8MultiArray', 10, EMBEDDED,
-           "each robot's controller state at each metrics sample", recorded=True, live=True),
+    # One message per /world/poses message, published just before it: the recorder pairs
+    # the n-th of each (the array has no stamp), so it keeps as deep a history as the poses.
+    _topic(ROBOT_STATES, 'std_msgs/msg/UInt8MultiArray', 1000, WORLD,
+           "each robot's controller state, with each /world/poses", recorded=True, live=True),
+    # The sources move (world.source_velocity, source_path): published with the cue map.
+    _topic(SOURCES, 'visualization_msgs/msg/MarkerArray', 1, WORLD,
+           'the leak sources where they are, one marker each', latched=True, recorded=True,
+           live=True),
     _topic(EPISODE, 'std_msgs/msg/String', 1, SUPERVISOR,
            'the episode announcement or the shutdown (JSON)', latched=True, recorded=True,
            live=True),

@@ -31,8 +31,18 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, ChunkIndex, Header, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import breakup_chunk
 
-from mona_controller.contract import CLEANING, CUE_MAP, EPISODE, METRICS_PREFIX, POSES, STATUS
+from mona_controller.contract import (
+    CLEANING,
+    CUE_MAP,
+    EPISODE,
+    METRICS_PREFIX,
+    POSES,
+    ROBOT_STATES,
+    SOURCES,
+    STATUS,
+)
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
+from swarm_world import arena_markers
 from swarm_world.frames import poses_from_rows
 from swarm_world.timing import crossed
 
@@ -410,6 +420,11 @@ class EpisodeBag:
     cleaning: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
     cue_maps: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
     metrics: dict[str, list[tuple[int, float]]] = dataclasses.field(default_factory=dict)
+    #: each /world/robot_states: (log time, uint8 [N] states)
+    states: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
+    #: each /world/sources: (log time, ((name, x, y), ...))
+    sources: list[tuple[int, tuple[tuple[str, float, float], ...]]] = dataclasses.field(
+        default_factory=list)
 
     @property
     def seed(self) -> int | None:
@@ -476,6 +491,12 @@ def read_episode_bag(path: str | Path) -> EpisodeBag:
             bag.status.append((message.log_time, decode_json(message)))
         elif topic == CUE_MAP:
             bag.cue_maps.append((message.log_time, cue_of(decode(message))))
+        elif topic == ROBOT_STATES:
+            bag.states.append((message.log_time,
+                               np.frombuffer(bytes(decode(message).data), dtype=np.uint8)))
+        elif topic == SOURCES:
+            bag.sources.append((message.log_time,
+                                arena_markers.sources_from_markers(decode(message).markers)))
         elif topic == EPISODE:
             announcement = decode_json(message)
             if bag.announcement is None and 'shutdown' not in announcement:

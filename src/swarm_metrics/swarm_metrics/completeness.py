@@ -11,7 +11,11 @@ cleaning event makes the rebuilt cue drift from the world's. Each check returns 
   the episode's duration (the recomputed rows, and the online /metrics/* samples if any);
 * ``cue_maps``: every recorded /world/cue_map equals the cue rebuilt from the cleaning record,
   exactly (both cleaning modes are deterministic); a missing cleaning event shows up here;
-* ``online_metrics``: the online /metrics/* samples equal the recomputation exactly.
+* ``online_metrics``: the online /metrics/* samples equal the recomputation exactly;
+* ``robot_states``: t = 0 and every recorded pose have the robots' controller states
+  (/world/robot_states) at their time, one known state per robot;
+* ``sources``: /world/sources is recorded from t = 0 and each shows every announced source
+  exactly where the announced parameters put it at its time.
 
 Pure Python (no ROS): the inputs are the tables of :mod:`swarm_metrics.bag_reader` and the
 :class:`~swarm_metrics.analysis.Recomputation`, or plain numbers for the individual checks.
@@ -24,12 +28,18 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+import numpy as np
+
+from mona_controller.contract import ROBOT_STATES, SOURCES
 from swarm_metrics.analysis import Recomputation, episode_setup, recompute
 from swarm_metrics.bag_reader import STATUS, BagError, EpisodeBag
 from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.
-CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics')
+CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics', 'robot_states',
+          'sources')
+#: The state codes a controller reports (mona_controller.controller: follow, avoid, wait, turn).
+STATE_CODES = 4
 #: world.cleaning modes whose cue the cleaning record rebuilds exactly (swarm_world.cue.clean).
 DETERMINISTIC_CLEANING = frozenset({'monotone', 'literal'})
 #: Where the sample checks look.
@@ -236,6 +246,71 @@ def check_online_metrics(max_diff: float | None,
                     f"the metrics node's samples differ from the recomputation by {size}{at}")]
 
 
+def check_states(states: Sequence[tuple[int, Any]], pose_times: Iterable[int],
+                 start_ns: int, population: int) -> list[Finding]:
+    """The ``robot_states`` check: t = 0 and every recorded pose time have a
+    /world/robot_states with one known state code per robot.
+
+    Args:
+        states: [(log time ns, uint8 [N] states)], as :class:`EpisodeBag` holds them.
+        pose_times: log times (ns) of the recorded poses.
+        start_ns: sim time of t = 0.
+        population: N.
+    """
+    by_time = dict(states)
+    wanted = sorted({start_ns, *pose_times})
+    missing = [t for t in wanted if t not in by_time]
+    if missing:
+        return [Finding('robot_states', ROBOT_STATES,
+                        f'{len(missing)} of {len(wanted)} sampled times (t = 0 and each '
+                        f'recorded pose) have no states, the first at t = '
+                        f'{(missing[0] - start_ns) / 1e9:g} s')]
+    for t in wanted:
+        row = by_time[t]
+        if len(row) != population or (len(row) and int(max(row)) >= STATE_CODES):
+            return [Finding('robot_states', ROBOT_STATES,
+                            f'the states at t = {(t - start_ns) / 1e9:g} s are {list(row)}: '
+                            f'expected {population} codes below {STATE_CODES}')]
+    return []
+
+
+def check_sources(recorded: Sequence[tuple[int, tuple[tuple[str, float, float], ...]]],
+                  expected: Any, start_ns: int) -> list[Finding]:
+    """The ``sources`` check: /world/sources from t = 0, each message showing every source
+    where ``expected(t)`` (s) puts it, exactly (name, x, y).
+
+    Args:
+        recorded: [(log time ns, ((name, x, y), ...))], as :class:`EpisodeBag` holds them.
+        expected: t -> ((name, x, y), ...) from the announced parameters.
+        start_ns: sim time of t = 0.
+    """
+    if not recorded or recorded[0][0] != start_ns:
+        first = (f'the first at t = {(recorded[0][0] - start_ns) / 1e9:g} s' if recorded
+                 else 'none recorded')
+        return [Finding('sources', SOURCES, f'no /world/sources at t = 0 ({first})')]
+    wrong = [(t, shown) for t, shown in recorded
+             if tuple(shown) != tuple(expected((t - start_ns) / 1e9))]
+    if wrong:
+        t, shown = wrong[0]
+        return [Finding('sources', SOURCES,
+                        f'{len(wrong)} of {len(recorded)} recorded /world/sources differ from '
+                        f'the announced sources, the first at t = {(t - start_ns) / 1e9:g} s: '
+                        f'{list(shown)}, expected {list(expected((t - start_ns) / 1e9))}')]
+    return []
+
+
+def announced_sources(world: Any) -> Any:
+    """t (s) -> ((name, x, y), ...) of the announced ``world`` section's sources (as
+    ``CueField.source_positions`` computes them)."""
+    sources = world.source_list()
+
+    def at(t: float) -> tuple[tuple[str, float, float], ...]:
+        positions = [source.position(t, world.arena_side) for source in sources]
+        rows = np.array(positions, dtype=np.float64).reshape(-1, 2).tolist()
+        return tuple((source.name, x, y) for source, (x, y) in zip(sources, rows))
+    return at
+
+
 # --- a whole bag --------------------------------------------------------------------------
 
 def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]:
@@ -252,6 +327,8 @@ def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]
     first_sample = (None if result.online_first_diff is None else
                     (result.online_first_diff[1], (result.online_first_diff[0] - start) / 1e9))
     findings += check_online_metrics(result.online_max_diff, first_sample)
+    findings += check_states(bag.states, (t for t, _ in bag.poses), start, setup.population)
+    findings += check_sources(bag.sources, announced_sources(setup.world), start)
     return findings
 
 

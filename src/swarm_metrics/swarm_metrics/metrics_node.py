@@ -47,7 +47,7 @@ from swarm_metrics.recording import Closed, Recorder, Row
 
 EXIT_WORLD_LOST = 3
 #: The topics of the other nodes that a default bag records (the node publishes /metrics/*
-#: itself, and no node publishes /world/robot_states).
+#: itself).
 RECORDED = tuple(name for name, topic in TOPICS.items()
                  if topic.recorded and topic.publisher in (WORLD, SUPERVISOR))
 #: What ``record_all`` adds: every other topic of the world and the controllers (per robot
@@ -104,14 +104,18 @@ class MetricsNode(Node):
             qos.EPISODE: self._on_episode, qos.STATUS: self._on_status,
             qos.POSES: self._on_world, qos.CLEANING: self._on_world,
             qos.CUE_MAP: self._on_world, qos.CLOCK: self.recorder.periodic,
-            qos.OBSTACLES: self._on_obstacles,
+            qos.OBSTACLES: self._on_obstacles, qos.ROBOT_STATES: self._on_states,
+            qos.SOURCES: self._on_sources,
             qos.CUE_GRID: self.recorder.stamped, qos.MARKERS: self._on_unstamped,
             qos.GROUND: self.recorder.stamped, qos.PROXIMITY: self.recorder.stamped,
-            qos.CMD_VEL: self.recorder.stamped, qos.CLEANER: self._on_unstamped}
+            qos.CMD_VEL: self.recorder.stamped, qos.CLEANER: self._on_unstamped,
+            qos.STATE: self._on_unstamped}
         subscriptions = {topic: self._subscribe(topic) for topic in self.handlers
                          if topic in RECORDED or (options.record_all and topic in RECORDED_ALL
                                                   and not TOPICS[topic].per_robot)}
-        self.world_subscriptions = [subscriptions[qos.POSES], subscriptions[qos.CLEANING]]
+        # Volatile: no history for a late joiner, so these must be matched before step 0.
+        self.world_subscriptions = [subscriptions[qos.POSES], subscriptions[qos.CLEANING],
+                                    subscriptions[qos.ROBOT_STATES]]
         self._robot_subscriptions: set[int] = set()
         self._confirmed = False  # the open episode's "recording" report is out
         self._closing_at: float | None = None  # wall time to give up on the episode's rest
@@ -163,8 +167,9 @@ class MetricsNode(Node):
         self.report_pub.publish(String(data=report.to_json()))
 
     def _confirm(self) -> None:
-        """Say "recording" once the bag is open and the world's poses and cleaning events can
-        reach it (matched subscriptions: their topics keep no history for late joiners)."""
+        """Say "recording" once the bag is open and the world's poses, states and cleaning
+        events can reach it (matched subscriptions: their topics keep no history for late
+        joiners)."""
         if self._confirmed or self.recorder.episode is None:
             return
         if all(s.get_publisher_count() > 0 for s in self.world_subscriptions):
@@ -241,6 +246,14 @@ class MetricsNode(Node):
 
     def _on_obstacles(self, topic: str, data: bytes) -> None:
         self.recorder.obstacles(data)
+
+    def _on_states(self, topic: str, data: bytes) -> None:
+        self.recorder.robot_states(data)
+        self._close_if_done()
+
+    def _on_sources(self, topic: str, data: bytes) -> None:
+        self.recorder.sources(data)
+        self._close_if_done()
 
     def _on_unstamped(self, topic: str, data: bytes) -> None:
         self.recorder.write(topic, self.recorder.now_ns, data)

@@ -7,6 +7,11 @@ the metrics online, and knows when its record of an episode is whole: it has the
 final status and everything that status counts (the poses up to its time, its
 ``cleaning_events``), and a metric sample for every sample period from t = 0. The node
 (:mod:`swarm_metrics.metrics_node`) subscribes, calls it, and publishes what it returns.
+
+``/world/robot_states`` has no stamp: the world publishes one with every ``/world/poses``,
+just before it, so the n-th states message of an episode belongs to its n-th poses message;
+the recorder pairs them by that count (whichever topic's message comes first) and records
+the states of each sampled pose (and of t = 0) at the pose's time.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from mona_controller.contract import (
     EPISODE,
     OBSTACLES,
     POSES,
+    ROBOT_STATES,
+    SOURCES,
     STATUS,
     TOPICS,
     ContractError,
@@ -55,6 +62,16 @@ def stamp_ns(data: bytes) -> int:
     return sec * 1_000_000_000 + nanosec
 
 
+def markers_stamp_ns(data: bytes) -> int | None:
+    """The stamp of a serialized MarkerArray's first marker (None: no markers)."""
+    big = data[1] != 1
+    (count,) = struct.unpack_from('>I' if big else '<I', data, 4)
+    if count == 0:
+        return None
+    sec, nanosec = struct.unpack_from('>iI' if big else '<iI', data, 8)
+    return sec * 1_000_000_000 + nanosec
+
+
 def float64_cdr(value: float) -> bytes:
     """A std_msgs/Float64 serialized as rclpy does (little-endian CDR)."""
     return b'\x00\x01\x00\x00' + struct.pack('<d', value)
@@ -72,6 +89,14 @@ class Episode:
     cleaning: int = 0  #: /world/cleaning messages recorded
     last_pose_ns: int = 0
     last_map_ns: int = -1
+    last_sources_ns: int = -1  #: the latest /world/sources seen (-1: none yet)
+    poses_seen: int = 0  #: /world/poses messages of the episode, t = 0's included
+    states_seen: int = 0  #: /world/robot_states messages of the episode
+    states_recorded: int = 0
+    #: pose index -> log time, of sampled poses whose states have not arrived yet
+    states_wanted: dict[int, int] = dataclasses.field(default_factory=dict)
+    #: pose index -> states that arrived before their pose
+    states_early: dict[int, bytes] = dataclasses.field(default_factory=dict)
     running: bool = False  #: the world said it runs the episode
     obstacles: bool = False  #: the world's /world/obstacles is in the bag
     final: WorldStatus | None = None  #: the world's finished or failed status
@@ -89,9 +114,12 @@ class Episode:
             return False
         # The world publishes the final poses and cue map, then its final status, on three
         # topics: any of them may come last.
+        # A world that publishes states and sources publishes them with the poses and the map.
         end_ns, counted = self.final.time_ns, self.final.cleaning_events
         return (self.last_pose_ns >= end_ns and self.last_map_ns >= end_ns
-                and (counted is None or self.cleaning >= counted))
+                and (counted is None or self.cleaning >= counted)
+                and (self.states_seen == 0 or self.states_seen >= self.poses_seen)
+                and (self.last_sources_ns < 0 or self.last_sources_ns >= end_ns))
 
     def problems(self) -> list[str]:
         """What the record lacks (nothing: it is complete)."""
@@ -108,6 +136,15 @@ class Episode:
         counted = None if final is None else final.cleaning_events
         if counted is not None and self.cleaning != counted:
             problems.append(f'{self.cleaning} of the {counted} cleaning events')
+        if not self.states_seen:
+            problems.append(f'no {ROBOT_STATES} (the world publishes one with every '
+                            f'{POSES})')
+        elif self.states_wanted:
+            problems.append(f'{len(self.states_wanted)} of the '
+                            f'{len(self.states_wanted) + self.states_recorded} sampled poses '
+                            f'have no {ROBOT_STATES}')
+        if self.last_sources_ns < 0:
+            problems.append(f'no {SOURCES}')
         if self.replica.late_events:
             problems.append(f'{self.replica.late_events} cleaning events arrived after their '
                             'time was sampled')
@@ -154,7 +191,9 @@ class Recorder:
                  clock_period: float, record_all: bool = False) -> None:
         self.output_dir = output_dir
         self.chunk_period = chunk_period
+        # The sources are recorded as often as the cue map they explain.
         self.periods_ns = {CUE_MAP: round(cue_map_period * 1e9),
+                           SOURCES: round(cue_map_period * 1e9),
                            CLOCK: round(clock_period * 1e9)}
         self.record_all = record_all
         self.episode: Episode | None = None
@@ -206,7 +245,8 @@ class Recorder:
         # Samples wait until the world's status says every cleaning event up to them is here.
         self.episode.replica.confirmed_ns = setup.start_ns
         self._last_recorded.clear()
-        for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP, *map(metric_topic, metrics)):
+        for topic in (EPISODE, STATUS, POSES, CLEANING, CUE_MAP, ROBOT_STATES, SOURCES,
+                      *map(metric_topic, metrics)):
             self._add_topic(topic)
         bag.describe(document)
         bag.write(EPISODE, setup.start_ns, data)
@@ -292,28 +332,40 @@ class Recorder:
         return self._samples(episode.replica.advance(time_ns))
 
     def route(self, topic: str, data: bytes) -> list[Row]:
-        """A /world/poses, /world/cleaning or /world/cue_map message; returns metric rows.
+        """A /world/poses, /world/cleaning, /world/cue_map, /world/robot_states or
+        /world/sources message; returns metric rows.
 
         The world steps an episode only after the node has said it records it, so its
         messages cannot come first; should they anyway (a world that does not wait), they are
         kept, up to EARLY_LIMIT, and filed once the announcement arrives. Messages older than
         the last closed episode are stale and dropped.
         """
+        if topic == ROBOT_STATES:
+            self.robot_states(data)
+            return []
+        if topic == SOURCES:
+            self.sources(data)
+            return []
         stamp = stamp_ns(data)
         self.now_ns = max(self.now_ns, stamp)
         episode = self.episode
         if episode is not None and stamp <= episode.setup.end_ns:
             if topic == CUE_MAP:
                 self.periodic(topic, data)
+            elif topic == POSES and stamp == episode.setup.start_ns:
+                self._want_states(stamp)  # t = 0: its sample is the announcement's
             elif stamp > episode.setup.start_ns:
                 return self._poses(stamp, data) if topic == POSES else self._cleaning(stamp,
                                                                                       data)
         elif stamp > self._closed_end_ns:
-            if len(self._early) >= EARLY_LIMIT:
-                self._early.popleft()
-                self.early_lost += 1
-            self._early.append((topic, data))
+            self._keep_early(topic, data)
         return []
+
+    def _keep_early(self, topic: str, data: bytes) -> None:
+        if len(self._early) >= EARLY_LIMIT:
+            self._early.popleft()
+            self.early_lost += 1
+        self._early.append((topic, data))
 
     def _poses(self, stamp: int, data: bytes) -> list[Row]:
         episode = self.episode
@@ -327,7 +379,52 @@ class Recorder:
         rows, sampled = episode.replica.pose(stamp, poses)
         if sampled or self.record_all:
             self.write(POSES, stamp, data)
+        if sampled:
+            self._want_states(stamp)
+        else:
+            episode.states_early.pop(episode.poses_seen, None)
+            episode.poses_seen += 1
         return self._samples(rows)
+
+    # --- the robots' states: paired with the poses by count --------------------------
+
+    def _want_states(self, stamp: int) -> None:
+        """The open episode's next pose is a sample at ``stamp``: record its states there."""
+        episode = self.episode
+        index, episode.poses_seen = episode.poses_seen, episode.poses_seen + 1
+        data = episode.states_early.pop(index, None)
+        if data is None:
+            episode.states_wanted[index] = stamp
+        else:
+            self._write_states(stamp, data)
+
+    def robot_states(self, data: bytes) -> None:
+        """A /world/robot_states message: the states that go with the world's next poses."""
+        episode = self.episode
+        if episode is None:
+            self._keep_early(ROBOT_STATES, data)  # before the announcement (a hasty world)
+            return
+        index, episode.states_seen = episode.states_seen, episode.states_seen + 1
+        stamp = episode.states_wanted.pop(index, None)
+        if stamp is not None:
+            self._write_states(stamp, data)
+        elif index >= episode.poses_seen:
+            episode.states_early[index] = bytes(data)  # its pose is on its way
+        # else: the states of a pose that is not a sample (not recorded)
+
+    def _write_states(self, stamp: int, data: bytes) -> None:
+        self.write(ROBOT_STATES, stamp, data)
+        self.episode.states_recorded += 1
+
+    def sources(self, data: bytes) -> None:
+        """A /world/sources message: recorded at its markers' stamp, as often as the cue map
+        (``cue_map_period``, and the one that ends the episode)."""
+        stamp = markers_stamp_ns(data)
+        episode = self.episode
+        if episode is None or stamp is None or not (
+                episode.setup.start_ns <= stamp <= episode.setup.end_ns):
+            return  # no episode, or another episode's (a latched message of the last one)
+        self.periodic(SOURCES, data, stamp)
 
     def _cleaning(self, stamp: int, data: bytes) -> list[Row]:
         episode = self.episode
@@ -352,15 +449,18 @@ class Recorder:
         self.write(OBSTACLES, self.episode.setup.start_ns, self._obstacles)
         self.episode.obstacles = True
 
-    def periodic(self, topic: str, data: bytes) -> None:
-        """Record a /clock or /world/cue_map message: at most one per period, and the one
-        that ends the episode (the final cue map)."""
-        stamp = stamp_ns(data)
+    def periodic(self, topic: str, data: bytes, stamp: int | None = None) -> None:
+        """Record a /clock, /world/cue_map or /world/sources message (``stamp``: its time,
+        default its header's): at most one per period, and the one that ends the episode
+        (the final cue map)."""
+        stamp = stamp_ns(data) if stamp is None else stamp
         self.now_ns = max(self.now_ns, stamp)
         if self.episode is None:
             return
         if topic == CUE_MAP:
             self.episode.last_map_ns = max(self.episode.last_map_ns, stamp)
+        elif topic == SOURCES:
+            self.episode.last_sources_ns = max(self.episode.last_sources_ns, stamp)
         last = self._last_recorded.get(topic)
         if last == stamp and not self.record_all:
             # The same instant again: the world's end publishes the last step's map a second

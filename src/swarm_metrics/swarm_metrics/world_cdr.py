@@ -178,10 +178,23 @@ def obstacles_cdr(arena: Arena) -> bytes:
     """visualization_msgs/MarkerArray ``/world/obstacles``: one grey marker per obstacle of
     ``arena`` (:mod:`swarm_world.arena_markers`), stamp 0; no obstacles, no markers. Built
     from the same marker data as the world node's message."""
-    markers = [_any_marker(0, arena_markers.NAMESPACE, data.id, data.type, data.position,
-                           data.scale, arena_markers.COLOUR, data.points, data.text)
-               for data in arena_markers.obstacle_markers(arena)]
-    return serialize(TYPES[MARKER_ARRAY](markers=markers), MARKER_ARRAY)
+    return _marker_array_cdr(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
+                             arena_markers.COLOUR, 0)
+
+
+def sources_cdr(names: tuple[str, ...], positions: np.ndarray, ns: int) -> bytes:
+    """visualization_msgs/MarkerArray ``/world/sources``: one sphere per source at
+    ``positions`` [S, 2], stamped ``ns``; the same marker data as the world node's message
+    (:func:`swarm_world.arena_markers.source_markers`)."""
+    return _marker_array_cdr(arena_markers.source_markers(names, positions.tolist()),
+                             arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR, ns)
+
+
+def _marker_array_cdr(markers: tuple[arena_markers.MarkerData, ...], namespace: str,
+                      colour: tuple, ns: int) -> bytes:
+    array = [_any_marker(ns, namespace, data.id, data.type, data.position, data.scale, colour,
+                         data.points, data.text) for data in markers]
+    return serialize(TYPES[MARKER_ARRAY](markers=array), MARKER_ARRAY)
 
 
 # Sentinels that locate the varying fields of a serialized marker (see _marker_layout).

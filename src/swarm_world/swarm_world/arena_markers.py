@@ -1,4 +1,4 @@
-"""The arena's obstacles as marker data, and back. Pure (no ROS).
+"""The arena's obstacles and the leak sources as marker data, and back. Pure (no ROS).
 
 ``/world/obstacles`` (docs/interfaces.md) is a ``visualization_msgs/MarkerArray`` with one
 marker per obstacle of :class:`swarm_world.arena.Arena`, in name order: namespace
@@ -18,6 +18,14 @@ time, as RViz and Foxglove take it), grey (:data:`COLOUR`), :data:`HEIGHT` tall:
 publish and record the same. :func:`obstacles_from_markers` turns decoded markers (rclpy's,
 rosbags', mcap-ros2-support's: anything with the message's fields) back into shapes, for the
 videos.
+
+``/world/sources`` (also a ``visualization_msgs/MarkerArray``) shows where the leak sources
+are at a sim time: one ``SPHERE`` per source in name order, namespace
+:data:`SOURCES_NAMESPACE`, id = its index, its name in ``text``, :data:`SOURCE_SIZE` across,
+resting on the floor at the source's centre, magenta (:data:`SOURCE_COLOUR`: neither the
+cue's greys nor a robot state's colour); every marker is stamped with the time it shows.
+:func:`source_markers` makes them for both runners, :func:`sources_from_markers` reads them
+back.
 """
 
 from __future__ import annotations
@@ -35,8 +43,13 @@ HEIGHT = 0.1
 COLOUR = (0.5, 0.5, 0.5, 1.0)
 FRAME = WORLD_FRAME
 #: visualization_msgs/Marker's type and action codes used here.
-CUBE, CYLINDER, TRIANGLE_LIST = 1, 3, 11
+CUBE, SPHERE, CYLINDER, TRIANGLE_LIST = 1, 2, 3, 11
 ADD = 0
+SOURCES_NAMESPACE = 'sources'
+#: The drawn diameter of a source's sphere (m): about a Mona's size, small beside any disc.
+SOURCE_SIZE = 0.08
+#: RGBA of every source marker.
+SOURCE_COLOUR = (0.85, 0.0, 0.85, 1.0)
 
 Point = tuple[float, float, float]
 
@@ -107,3 +120,20 @@ def obstacles_from_markers(markers: Iterable[object]) -> tuple[Obstacle, ...]:
             fan = [(p.x + x, p.y + y) for p in marker.points[:3 * (n - 2)]]
             out.append(Polygon(marker.text, (fan[0], fan[1], *fan[2::3])))
     return tuple(out)
+
+
+def source_markers(names: Iterable[str], positions: Iterable[Iterable[float]]
+                   ) -> tuple[MarkerData, ...]:
+    """One sphere per source at ``positions`` ([S, 2] x, y in m, e.g.
+    ``CueField.source_positions(t)``), in the order of ``names`` (id = index)."""
+    return tuple(MarkerData(k, SPHERE, (float(x), float(y), SOURCE_SIZE / 2),
+                            (SOURCE_SIZE, SOURCE_SIZE, SOURCE_SIZE), text=name)
+                 for k, (name, (x, y)) in enumerate(zip(names, positions)))
+
+
+def sources_from_markers(markers: Iterable[object]) -> tuple[tuple[str, float, float], ...]:
+    """(name, x, y) of each source that decoded ``/world/sources`` markers show, in order
+    (markers of another namespace or action left out)."""
+    return tuple((marker.text, marker.pose.position.x, marker.pose.position.y)
+                 for marker in markers
+                 if marker.ns == SOURCES_NAMESPACE and marker.action == ADD)

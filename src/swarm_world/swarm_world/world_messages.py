@@ -1,5 +1,6 @@
 """Conversions of the world's own topics (docs/interfaces.md, "World"): poses, cue map and
-grid, robot and obstacle markers. The per-robot messages are :mod:`mona_controller.messages`.
+grid, robot, obstacle and source markers, the robots' states. The per-robot messages are
+:mod:`mona_controller.messages`.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ import numpy as np
 from geometry_msgs.msg import Point, Pose, PoseArray
 from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import Image
-from std_msgs.msg import ColorRGBA
+from std_msgs.msg import ColorRGBA, UInt8MultiArray
 from visualization_msgs.msg import Marker, MarkerArray
 
 from mona_controller.contract import WORLD_FRAME
@@ -116,13 +117,35 @@ def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
 def obstacle_markers(arena: Arena) -> MarkerArray:
     """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.arena_markers`),
     stamp 0; no obstacles, no markers."""
+    return _marker_array(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
+                         arena_markers.COLOUR, 0)
+
+
+def source_markers(names: tuple[str, ...], positions: np.ndarray,
+                   stamp_ns: int) -> MarkerArray:
+    """``/world/sources``: one magenta sphere per source at ``positions`` [S, 2], every
+    marker stamped ``stamp_ns`` (:func:`swarm_world.arena_markers.source_markers`)."""
+    return _marker_array(arena_markers.source_markers(names, positions.tolist()),
+                         arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR,
+                         stamp_ns)
+
+
+def robot_states(states: np.ndarray) -> UInt8MultiArray:
+    """``/world/robot_states``: each robot's controller state, robot i at index i (no layout
+    dimensions, as the embedded runner's :func:`swarm_metrics.world_cdr.states_cdr`)."""
+    return UInt8MultiArray(data=np.asarray(states, dtype=np.uint8).tobytes())
+
+
+def _marker_array(markers: tuple[arena_markers.MarkerData, ...], namespace: str,
+                  rgba: tuple[float, float, float, float], stamp_ns: int) -> MarkerArray:
     out = MarkerArray()
-    colour = ColorRGBA(r=arena_markers.COLOUR[0], g=arena_markers.COLOUR[1],
-                       b=arena_markers.COLOUR[2], a=arena_markers.COLOUR[3])
-    for data in arena_markers.obstacle_markers(arena):
-        marker = Marker(ns=arena_markers.NAMESPACE, id=data.id, type=data.type,
-                        action=arena_markers.ADD, text=data.text)
+    colour = ColorRGBA(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
+    stamp = ns_to_stamp(stamp_ns)
+    for data in markers:
+        marker = Marker(ns=namespace, id=data.id, type=data.type, action=arena_markers.ADD,
+                        text=data.text)
         marker.header.frame_id = arena_markers.FRAME
+        marker.header.stamp = stamp
         (marker.pose.position.x, marker.pose.position.y,
          marker.pose.position.z) = data.position
         marker.pose.orientation.w = 1.0

@@ -4,9 +4,9 @@ Messages in, two pure cores, messages out: :class:`~swarm_world.world.World` is 
 :class:`~swarm_world.lockstep.Lockstep` the rounds with the controllers (which command counts,
 misses, absent robots). On each ``/episode`` announcement the node resets the world, waits for
 every robot's controller and every recorder, then steps in lockstep or realtime. It publishes
-/clock, the ground-truth poses, the cleaning events, the cue map and grid, robot markers and
-/world/status, once (latched) its obstacles, and with ``output_dir`` writes each episode's
-final state.
+/clock, the ground-truth poses with the controllers' states, the cleaning events, the cue map
+and grid, the sources, robot markers and /world/status, once (latched) its obstacles, and
+with ``output_dir`` writes each episode's final state.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from rclpy.parameter import Parameter
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, String, UInt8, UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from mona_controller import qos
@@ -64,6 +64,8 @@ from swarm_world.world_messages import (
     cue_image,
     obstacle_markers,
     robot_markers,
+    robot_states,
+    source_markers,
 )
 
 FINAL_FILE = 'world_final.npz'
@@ -76,7 +78,8 @@ HOLD_POLL = 0.02
 class RobotLink:
     """The world's end of one robot's topics, with messages built once and reused."""
 
-    def __init__(self, node: Node, robot_id: int, mona: MonaParams, on_cleaner, on_cmd):
+    def __init__(self, node: Node, robot_id: int, mona: MonaParams, on_state, on_cleaner,
+                 on_cmd):
         self.robot_id = robot_id
         self.ground_msg = ground_image(robot_id)
         self.scan_msg = proximity_scan(robot_id, mona)
@@ -86,7 +89,11 @@ class RobotLink:
         self.scan_pub = node.create_publisher(LaserScan,
                                               qos.robot_topic(robot_id, qos.PROXIMITY),
                                               qos.SENSOR_QOS, event_callbacks=quiet_pub)
-        # cleaner before cmd_vel: when both are ready the executor takes them in this order.
+        # state and cleaner before cmd_vel: when all are ready the executor takes them in this
+        # order (the controller publishes them in it).
+        self.state_sub = node.create_subscription(
+            UInt8, qos.robot_topic(robot_id, qos.STATE), partial(on_state, robot_id),
+            qos.STATE_QOS, event_callbacks=quiet_sub)
         self.cleaner_sub = node.create_subscription(
             Bool, qos.robot_topic(robot_id, qos.CLEANER), partial(on_cleaner, robot_id),
             qos.CLEANER_QOS, event_callbacks=quiet_sub)
@@ -113,8 +120,8 @@ class RobotLink:
 
     def take_waiting(self) -> None:
         """Handle the cleaner and command messages that wait in the subscriptions now, as the
-        executor would (cleaner first)."""
-        for subscription in (self.cleaner_sub, self.cmd_sub):
+        executor would (state and cleaner first)."""
+        for subscription in (self.state_sub, self.cleaner_sub, self.cmd_sub):
             while True:
                 with subscription.handle:
                     taken = subscription.handle.take_message(subscription.msg_type,
@@ -144,6 +151,9 @@ class WorldNode(Node):
         self.map_pub = self.create_publisher(Image, qos.CUE_MAP, qos.MAP_QOS)
         self.grid_pub = self.create_publisher(OccupancyGrid, qos.CUE_GRID, qos.MAP_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, qos.MARKERS, qos.MARKERS_QOS)
+        self.states_pub = self.create_publisher(UInt8MultiArray, qos.ROBOT_STATES,
+                                                qos.ROBOT_STATES_QOS)
+        self.sources_pub = self.create_publisher(MarkerArray, qos.SOURCES, qos.SOURCES_QOS)
         # Static scenery, latched: the arena is the node's for its lifetime (an announcement
         # with other world parameters is rejected), so once is enough for every episode.
         self.obstacles_pub = self.create_publisher(MarkerArray, qos.OBSTACLES,
@@ -170,6 +180,9 @@ class WorldNode(Node):
         self.total_steps = 0
         self.lockstep = Lockstep(0, 0, self.options.absent_after, self.params.step_ns)
         self.cleaning_events = 0  # /world/cleaning messages of this episode
+        #: Each robot's controller state after its latest answer (0 before its first: every
+        #: controller kind starts an episode there, docs/interfaces.md).
+        self.states = np.zeros(0, dtype=np.uint8)
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
         self.resend_timer = None  # lockstep, step 0 only
@@ -212,9 +225,10 @@ class WorldNode(Node):
         self.lockstep = Lockstep(population, self.start_ns, self.options.absent_after,
                                  self.params.step_ns * self.params.control_steps)
         self.cleaning_events = 0
+        self.states = np.zeros(population, dtype=np.uint8)
         while len(self.links) < population:
-            self.links.append(RobotLink(self, len(self.links), self.mona, self.on_cleaner,
-                                        self.on_cmd))
+            self.links.append(RobotLink(self, len(self.links), self.mona, self.on_state,
+                                        self.on_cleaner, self.on_cmd))
         self.state = WorldState.WAITING
         self.error = ''
         self.publish_status()
@@ -251,13 +265,15 @@ class WorldNode(Node):
 
     def _not_recording(self) -> list[str]:
         """Expected recorders that have not confirmed the episode, or whose subscriptions to
-        the poses and cleaning events (volatile: no history for late joiners) are not matched."""
+        the poses, states and cleaning events (volatile: no history for late joiners) are not
+        matched."""
         missing = self.recorders.not_recording(self.episode, self.start_ns)
         subscribed = min(self.poses_pub.get_subscription_count(),
-                         self.cleaning_pub.get_subscription_count())
+                         self.cleaning_pub.get_subscription_count(),
+                         self.states_pub.get_subscription_count())
         if not missing and subscribed < len(self.recorders.names):
-            return [f'{len(self.recorders.names) - subscribed} subscription(s) to {qos.POSES} '
-                    f'and {qos.CLEANING}']
+            return [f'{len(self.recorders.names) - subscribed} subscription(s) to {qos.POSES}, '
+                    f'{qos.ROBOT_STATES} and {qos.CLEANING}']
         return missing
 
     def _wait_for_controllers(self) -> None:
@@ -329,6 +345,11 @@ class WorldNode(Node):
         self.held_since = None
 
     # --- commands -----------------------------------------------------------------------
+
+    def on_state(self, robot_id: int, msg: UInt8) -> None:
+        """A controller's state after its latest answer (for /world/robot_states)."""
+        if robot_id < len(self.states):
+            self.states[robot_id] = msg.data
 
     def on_cleaner(self, robot_id: int, msg: Bool) -> None:
         """A controller says whether its robot is cleaning."""
@@ -494,6 +515,9 @@ class WorldNode(Node):
             self.publish_status()
 
     def _publish_poses(self) -> None:
+        """The poses, just after the controllers' states: the n-th /world/robot_states goes with
+        the n-th /world/poses of the episode (the states array carries no stamp)."""
+        self.states_pub.publish(robot_states(self.states))
         self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
 
     def _publish_readings(self) -> None:
@@ -511,13 +535,16 @@ class WorldNode(Node):
         self.clock_pub.publish(self.clock_msg)
 
     def publish_map(self) -> None:
-        """Publish the cue map, its occupancy grid and the robot markers."""
+        """Publish the cue map, its occupancy grid, the sources and the robot markers."""
         self.map_pub.publish(cue_image(self.world.cue, self.time_ns))
+        field = self.world.field
+        self.sources_pub.publish(source_markers(
+            field.names, field.source_positions(self.world.time_ns / 1e9), self.time_ns))
         self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
         self.markers_pub.publish(robot_markers(self.world.poses, self.world.cleaning,
                                                self.mona.body_radius, self.time_ns))
         if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
-            self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+            self._publish_poses()
 
     def publish_status(self) -> None:
         """Publish /world/status with the lockstep counters."""

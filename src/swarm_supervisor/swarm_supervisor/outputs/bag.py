@@ -6,9 +6,8 @@ supervisor would publish for it (:mod:`swarm_metrics.world_cdr`), in the order t
 them, and feeds them to the metrics node's own recording logic,
 :class:`swarm_metrics.recording.Recorder`. So the embedded bag has the node system's topics,
 types, QoS metadata, custom_data and sampling, by construction; ``analyze``, ``replay``,
-``animate`` and Foxglove read either runner's bags alike. It adds one topic the node system
-cannot record, ``/world/robot_states`` (each robot's controller state at each metrics sample),
-which only the embedded runner knows.
+``animate`` and Foxglove read either runner's bags alike, down to the robots' controller
+states and the sources' markers.
 
 For the study, :func:`record_episode` runs one episode and writes its bag.
 """
@@ -29,7 +28,6 @@ from mona_controller.contract import (
     CLOCK,
     CUE_MAP,
     POSES,
-    ROBOT_STATES,
     Announcement,
     WorldState,
     WorldStatus,
@@ -42,6 +40,7 @@ from swarm_metrics.world_cdr import (
     cue_image_cdr,
     obstacles_cdr,
     pose_array_cdr,
+    sources_cdr,
     states_cdr,
     string_cdr,
 )
@@ -58,9 +57,7 @@ EMBEDDED_MODE = 'embedded'
 def bag_topic_table() -> dict[str, tuple[str, Qos]]:
     """Every topic an embedded bag holds, with its type and offered QoS: the contract's
     recorded topics (:func:`mona_controller.topics.recorded`), one ``/metrics/<name>`` per
-    metric of the table now. The node system's bags hold the same less ``/world/robot_states``
-    (``/world/robot_states``: each robot's controller state at each metrics sample, which only
-    the embedded runner knows)."""
+    metric of the table now. The node system's bags hold the same."""
     return bag_topics(topics.expand(topics.recorded(), metric_names()))
 
 
@@ -158,7 +155,7 @@ class BagRecorder(EpisodeObserver):
             self._take(self.recorder.announce(string_cdr(announcement.to_json())).rows)
             self._status(episode, WorldState.WAITING)
             self.recorder.periodic(CLOCK, clock_cdr(self.start_ns))
-            self._route(CUE_MAP, cue_image_cdr(world.cue, self.start_ns))
+            self._map(episode, self.start_ns)
             self._status(episode, WorldState.RUNNING)
             self._poses(episode, self.start_ns)
         except BaseException:
@@ -189,7 +186,7 @@ class BagRecorder(EpisodeObserver):
         # left out here.
         last = episode.done
         if not last and crossed(step.before_ns, step.time_ns, self._periods['map_period']):
-            self._route(CUE_MAP, cue_image_cdr(world.cue, now))
+            self._map(episode, now)
         if not last and crossed(step.before_ns, step.time_ns, self._periods['status_period']):
             self._status(episode, WorldState.RUNNING)
         # The world publishes the poses of every step; the recorder keeps only those of the
@@ -201,7 +198,7 @@ class BagRecorder(EpisodeObserver):
         """Write the last cue map, metrics and status, then close the bag."""
         try:
             now = self.start_ns + episode.time_ns
-            self._route(CUE_MAP, cue_image_cdr(episode.world.cue, now))
+            self._map(episode, now)
             self._poses(episode, now)
             self._status(episode, WorldState.FINISHED)
         finally:
@@ -214,9 +211,19 @@ class BagRecorder(EpisodeObserver):
     def _route(self, topic: str, data: bytes) -> None:
         self._take(self.recorder.route(topic, data))
 
+    def _map(self, episode: Episode, now: int) -> None:
+        """The world node's publish_map: the cue map, then the sources (the grid and the
+        markers are not recorded)."""
+        field = episode.world.field
+        self._route(CUE_MAP, cue_image_cdr(field.cue, now))
+        self.recorder.sources(sources_cdr(field.names,
+                                          field.source_positions(episode.world.time_ns / 1e9),
+                                          now))
+
     def _poses(self, episode: Episode, now: int) -> None:
+        # The world node's order: the controllers' states, then the poses they go with.
+        self.recorder.robot_states(states_cdr(episode.controllers.state))
         self._route(POSES, pose_array_cdr(episode.world.poses, now))
-        self.recorder.write(ROBOT_STATES, now, states_cdr(episode.controllers.state))
 
     def _status(self, episode: Episode, state: WorldState) -> None:
         n = episode.config.episode.population

@@ -31,15 +31,15 @@ from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
-from mona_controller.topics import EMBEDDED
 from swarm_metrics.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 
 
 def message_stamp(topic: str, data: bytes) -> int:
     """The sim time (ns) a forwarded message describes: its header's stamp; a marker array
-    has no header, so its first marker's (the robot markers all share one stamp)."""
-    if topic == qos.MARKERS:
+    has no header, so its first marker's (the robot markers all share one stamp, and so do
+    the sources')."""
+    if topic in (qos.MARKERS, qos.SOURCES, qos.OBSTACLES):
         if len(data) < 16:
             return 0  # no markers
         sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 8)
@@ -48,11 +48,9 @@ def message_stamp(topic: str, data: bytes) -> int:
 
 
 def node_topics() -> dict[str, str]:
-    """What the node system's live view carries, with the types: everything the embedded one
-    does but what only the embedded runner publishes (the controllers' states, which are on no
-    topic)."""
-    return {name: msgtype for name, msgtype in live_topics().items()
-            if qos.topic_of(name).publisher != EMBEDDED}
+    """What the node system's live view carries, with the types: what the embedded one
+    does."""
+    return dict(live_topics())
 
 
 def __getattr__(name: str) -> object:
@@ -90,15 +88,18 @@ class LiveNode(Node):
         self.server = LiveServer(self.options.port, self.options.host, forwarded)
         period, map_period = 1.0 / self.options.rate, 1.0 / self.options.map_rate
         self.min_interval = {qos.POSES: period, qos.MARKERS: period, qos.CLOCK: period,
-                             qos.CUE_MAP: map_period, qos.CUE_GRID: map_period}
+                             qos.ROBOT_STATES: period, qos.CUE_MAP: map_period,
+                             qos.CUE_GRID: map_period}
         self.last_sent: dict[str, float] = {}
         self.sim_ns = 0  # the latest sim time seen: the log time of unstamped messages
-        #: The announcement, the latest status and the obstacles (the world's latched scenery).
+        #: The announcement, the latest status, the obstacles (the world's latched scenery)
+        #: and the sources where they were last.
         self.latched: dict[str, bytes] = {}
-        # The latched topics are kept for late joiners; a metric sample has no stamp; every
-        # other topic forwarded is stamped.
+        # The latched topics are kept for late joiners; a metric sample and the robots'
+        # states have no stamp; every other topic forwarded is stamped.
         handlers = {qos.EPISODE: self._on_episode, qos.STATUS: self._on_latched,
-                    qos.OBSTACLES: self._on_latched}
+                    qos.OBSTACLES: self._on_latched, qos.SOURCES: self._on_latched,
+                    qos.ROBOT_STATES: self._on_states}
         for topic, msgtype in forwarded.items():
             handler = handlers.get(topic) or (
                 self._on_unstamped if qos.topic_of(topic).per_metric else self._on_stamped)
@@ -135,6 +136,11 @@ class LiveNode(Node):
         # A metric sample is published just after the pose that completes it: the latest
         # sim time is that pose's, within a sample period of the sample's own time.
         self.server.publish(topic, self.sim_ns, bytes(data))
+
+    def _on_states(self, topic: str, data: bytes) -> None:
+        # Published just before the poses they go with: at the latest sim time, thinned.
+        if self._due(topic):
+            self.server.publish(topic, self.sim_ns, bytes(data))
 
     def _on_latched(self, topic: str, data: bytes) -> None:
         self.latched[topic] = bytes(data)
