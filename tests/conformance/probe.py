@@ -11,7 +11,8 @@ and 4 by this probe:
 - **episode 0** (the rules' episode): robot 3 subscribes to its readings only 1 s after the
   announcement, answers step 0 only after 2.5 s, answers step 10 once stamped for another
   step, then rightly, then again (a duplicate with another speed), answers step 31 (the
-  first cleaning tick's) after 0.1 s turning its cleaner on, and drives at 5 cm/s for steps
+  first cleaning tick's) after 0.1 s turning its cleaner on (and saying state 2: waiting
+  and cleaning; robot 4 never publishes a state), and drives at 5 cm/s for steps
   40-49; robot 4 answers steps 0-4 (cleaner on at step 4), is
   silent from step 5 and answers again from step 60.
 - **episode 1**: announced with another ``mona.ir_range``: the world must refuse it.
@@ -35,7 +36,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, String, UInt8, UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
 POPULATION = 5
@@ -106,7 +107,8 @@ class Probe(Node):
         self.status: list[tuple[float, dict]] = []
         self.clock_ns: list[tuple[float, int]] = []
         self.latched: dict[str, list] = {'cue_map': [], 'cue_grid': [], 'markers': [],
-                                         'obstacles': []}
+                                         'obstacles': [], 'sources': []}
+        self.robot_states: list[tuple[float, np.ndarray]] = []  #: (received, states)
         self.sent: dict[tuple[int, int], float] = {}  #: (robot, step) -> wall s of its answer
         self.listening: dict[int, float] = {}  #: robot -> wall s its subscriptions were made
         self.frames: set[tuple[str, str]] = set()  #: (topic, frame_id) seen
@@ -116,11 +118,16 @@ class Probe(Node):
         self.create_subscription(String, '/world/status', self._on_status,
                                  qos(1, latched=True))
         self.create_subscription(Clock, '/clock', self._on_clock, qos(100, reliable=False))
+        self.create_subscription(
+            UInt8MultiArray, '/world/robot_states',
+            lambda msg: self.robot_states.append((self.clock(), np.frombuffer(
+                bytes(msg.data), np.uint8).copy())), qos(1000))
         for name, kind, profile in (
                 ('cue_map', Image, qos(1, latched=True)),
                 ('cue_grid', OccupancyGrid, qos(1, latched=True)),
                 ('markers', MarkerArray, qos(10)),
-                ('obstacles', MarkerArray, qos(1, latched=True))):
+                ('obstacles', MarkerArray, qos(1, latched=True)),
+                ('sources', MarkerArray, qos(1, latched=True))):
             self.create_subscription(kind, f'/world/{name}',
                                      lambda msg, name=name: self.latched[name].append(
                                          (self.clock(), msg)), profile)
@@ -130,6 +137,8 @@ class Probe(Node):
             self._listen(robot)
         self.cmd_pubs = {robot: self.create_publisher(
             TwistStamped, f'/mona_{robot}/cmd_vel', qos(5)) for robot in SCRIPTED}
+        self.state_pubs = {robot: self.create_publisher(
+            UInt8, f'/mona_{robot}/state', qos(1, latched=True)) for robot in SCRIPTED}
         self.cleaner_pubs = {robot: self.create_publisher(
             Bool, f'/mona_{robot}/cleaner', qos(1, latched=True)) for robot in SCRIPTED}
         self.answered: dict[int, set[int]] = {robot: set() for robot in SCRIPTED}
@@ -203,7 +212,9 @@ class Probe(Node):
 
         def send() -> None:
             for command_stamp, linear in commands:
-                self.cleaner_pubs[robot].publish(Bool(data=cleaner))  # cleaner first
+                if robot == 3:  # robot 4 never says its state: the world keeps 0 for it
+                    self.state_pubs[robot].publish(UInt8(data=2 if cleaner else 0))
+                self.cleaner_pubs[robot].publish(Bool(data=cleaner))  # then the cleaner
                 twist = TwistStamped()
                 twist.header.stamp.sec, twist.header.stamp.nanosec = divmod(command_stamp,
                                                                              1_000_000_000)
@@ -313,7 +324,7 @@ class Scenario:
         other = copy.deepcopy(parameters)
         other['mona']['ir_range'] = parameters['mona']['ir_range'] + 0.02
         self.announced[1] = announcement(1, end_ns, POSES_2, DURATION_2, other)
-        probe.announce(self.announced[1])
+        self.marks['announced_1'] = probe.announce(self.announced[1])
         self.spin_until(self.status_of(1, 'failed'), 20, 'episode 1 refused')
         self.spin_until(lambda: False, 0.3, 'the refusal to settle')
 

@@ -56,12 +56,13 @@ def one_endpoint(run, topic: str, role: str) -> tuple:
     ('ground', 'publishers', 'sensor_msgs/msg/Image'),
     ('proximity', 'publishers', 'sensor_msgs/msg/LaserScan'),
     ('cmd_vel', 'subscriptions', 'geometry_msgs/msg/TwistStamped'),
-    ('cleaner', 'subscriptions', 'std_msgs/msg/Bool')])
+    ('cleaner', 'subscriptions', 'std_msgs/msg/Bool'),
+    ('state', 'subscriptions', 'std_msgs/msg/UInt8')])
 def test_per_robot_topics_in_namespace_mona_i_with_their_types(run, topic, role, msg_type):
     """Per robot (namespace `/mona_<i>`, i = 0 .. N-1): `ground` and `proximity` go
-    world/driver -> controller, `cmd_vel` and `cleaner` controller -> world/driver, of the
-    types `sensor_msgs/Image`, `sensor_msgs/LaserScan`, `geometry_msgs/TwistStamped`,
-    `std_msgs/Bool`."""
+    world/driver -> controller, `cmd_vel`, `cleaner` and `state` controller -> world/driver,
+    of the types `sensor_msgs/Image`, `sensor_msgs/LaserScan`, `geometry_msgs/TwistStamped`,
+    `std_msgs/Bool`, `std_msgs/UInt8`."""
     for robot in range(POPULATION):
         name = f'/mona_{robot}/{topic}'
         node, found_type, _, _ = one_endpoint(run, name, role)
@@ -70,12 +71,13 @@ def test_per_robot_topics_in_namespace_mona_i_with_their_types(run, topic, role,
 
 @pytest.mark.parametrize('topic, role, durability', [
     ('ground', 'publishers', VOLATILE), ('proximity', 'publishers', VOLATILE),
-    ('cmd_vel', 'subscriptions', VOLATILE), ('cleaner', 'subscriptions', LATCHED)])
+    ('cmd_vel', 'subscriptions', VOLATILE), ('cleaner', 'subscriptions', LATCHED),
+    ('state', 'subscriptions', LATCHED)])
 def test_per_robot_qos_reliable_and_volatile_but_the_cleaner_transient_local(
         run, topic, role, durability):
-    """`ground`, `proximity`, `cmd_vel`: reliable, volatile, keep last 5; `cleaner`: reliable,
-    transient local, keep last 1. (Discovery carries reliability and durability, not the
-    history depth, so the depth is not checked.)"""
+    """`ground`, `proximity`, `cmd_vel`: reliable, volatile, keep last 5; `cleaner` and
+    `state`: reliable, transient local, keep last 1. (Discovery carries reliability and
+    durability, not the history depth, so the depth is not checked.)"""
     for robot in range(POPULATION):
         name = f'/mona_{robot}/{topic}'
         _, _, reliability, found = one_endpoint(run, name, role)
@@ -377,6 +379,64 @@ def test_world_poses_every_step(run):
     low, high = run.window(0)
     stamps = {stamp for _, stamp, _ in run.probe.poses if low <= stamp <= high}
     assert stamps == {low + k * run.step_ns for k in range(run.steps(0) + 1)}
+
+
+def received_in_episode_0(run, items):
+    """The items (received first) that arrived between episode 0's announcement and the
+    next one's."""
+    after = run.scenario.marks.get('announced_0', 0.0)
+    before = run.scenario.marks.get('announced_1', math.inf)
+    return [item for item in items if after <= item[0] < before]
+
+
+def test_robot_states_one_with_every_world_poses_robot_i_at_index_i(run):
+    """`/world/robot_states`: `std_msgs/UInt8MultiArray`, reliable, with every `/world/poses`:
+    each robot's controller state (its latest `state`; 0 before its first answer of the
+    episode), robot i at index i ... the n-th `/world/robot_states` of an episode goes with
+    its n-th `/world/poses`."""
+    _, msg_type, reliability, _ = one_endpoint(run, '/world/robot_states', 'publishers')
+    assert msg_type == 'std_msgs/msg/UInt8MultiArray' and reliability == RELIABLE
+    states = received_in_episode_0(run, run.probe.robot_states)
+    poses = received_in_episode_0(run, run.probe.poses)
+    assert states and len(states) == len(poses), (len(states), len(poses))
+    assert all(len(row) == POPULATION and set(row.tolist()) <= {0, 1, 2, 3}
+               for _, row in states)
+    assert all(row[4] == 0 for _, row in states)  # robot 4 never said its state
+
+
+@pytest.mark.lockstep
+def test_robot_states_hold_each_robots_latest_state(run):
+    """`/world/robot_states`: each robot's controller state (its latest `state`), robot i at
+    index i (robot 3 says 2, waiting and cleaning, with its answer to step 31: the states
+    with the poses of t_32 on show it, those before do not)."""
+    states = received_in_episode_0(run, run.probe.robot_states)
+    poses = received_in_episode_0(run, run.probe.poses)
+    assert len(states) == len(poses)
+    switch = run.window(0)[0] + (ROBOT3_CLEANS_FROM + 1) * run.step_ns
+    for (_, row), (_, stamp, _) in zip(states, poses):
+        assert row[3] == (2 if stamp >= switch else 0), (stamp, row.tolist())
+
+
+def test_sources_with_every_cue_map_one_sphere_per_source(run):
+    """`/world/sources`: `visualization_msgs/MarkerArray`, transient local, with `cue_map`:
+    one `SPHERE` per source in name order, ns `sources`, id = its index, `text` = its name,
+    8 cm across, resting on the floor at the source's centre, magenta, frame `world`, every
+    marker stamped with the time it shows (here the paper's one source, `source`, at the
+    arena centre)."""
+    _, msg_type, _, durability = one_endpoint(run, '/world/sources', 'publishers')
+    assert msg_type == 'visualization_msgs/msg/MarkerArray' and durability == LATCHED
+    sources = run.maps(0, 'sources')
+    assert {stamp_of(m) for m in run.maps(0)} <= {stamp_of(m) for m in sources}
+    centre = run.world['arena_side'] / 2
+    for msg in sources:
+        (marker,) = msg.markers
+        assert (marker.ns, marker.id, marker.type, marker.text, marker.header.frame_id) == \
+            ('sources', 0, 2, 'source', 'world')
+        assert math.isclose(marker.pose.position.x, centre, abs_tol=1e-9)
+        assert math.isclose(marker.pose.position.y, centre, abs_tol=1e-9)
+        assert math.isclose(marker.scale.x, 0.08, abs_tol=1e-9)
+        assert math.isclose(marker.pose.position.z, marker.scale.z / 2, abs_tol=1e-9)
+        assert marker.color.r > marker.color.g < marker.color.b  # magenta
 
 
 def test_world_cleaning_at_cleaning_ticks_in_robot_order(run):
