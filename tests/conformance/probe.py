@@ -61,6 +61,10 @@ ROBOT3_SLOW_DELAY = 0.1
 ROBOT3_DRIVES = range(40, 50)  #: robot 3 drives forward at ROBOT3_SPEED for these steps
 ROBOT3_SPEED = 0.05
 ROBOT4_SILENT = range(5, 60)
+#: The probe's history for the readings and markers: deeper than the page's keep last 5
+#: (a subscriber's depth is its own), so a probe slowed down by a loaded machine loses none
+#: of a realtime world's readings.
+LISTENER_DEPTH = 200
 ROBOT4_CLEANER_STEP = 4
 
 
@@ -125,7 +129,7 @@ class Probe(Node):
         for name, kind, profile in (
                 ('cue_map', Image, qos(1, latched=True)),
                 ('cue_grid', OccupancyGrid, qos(1, latched=True)),
-                ('markers', MarkerArray, qos(10)),
+                ('markers', MarkerArray, qos(LISTENER_DEPTH)),
                 ('obstacles', MarkerArray, qos(1, latched=True)),
                 ('sources', MarkerArray, qos(1, latched=True))):
             self.create_subscription(kind, f'/world/{name}',
@@ -153,7 +157,8 @@ class Probe(Node):
             self.readings[(robot, kind)] = self.readings.get((robot, kind), [])
             self.create_subscription(
                 msg_type, f'/mona_{robot}/{kind}',
-                lambda msg, robot=robot, kind=kind: self._on_reading(robot, kind, msg), qos(5))
+                lambda msg, robot=robot, kind=kind: self._on_reading(robot, kind, msg),
+                qos(LISTENER_DEPTH))
 
     def _on_reading(self, robot: int, kind: str, msg) -> None:
         stamp = ns_of(msg.header.stamp)
