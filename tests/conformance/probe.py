@@ -296,6 +296,23 @@ class Scenario:
             self.executor.spin_once(timeout_sec=0.02)
         return True
 
+    def settle(self, quiet: float = 0.5, limit: float = 5.0) -> None:
+        """Spin until no message has arrived for ``quiet`` wall seconds (at most ``limit``):
+        the last messages of an episode travel on several topics and may come late on a
+        loaded machine."""
+        probe = self.probe
+
+        def count() -> int:
+            return (len(probe.poses) + len(probe.robot_states) + len(probe.cleaning)
+                    + len(probe.status) + sum(len(v) for v in probe.latched.values()))
+
+        deadline = time.monotonic() + limit
+        seen, since = count(), time.monotonic()
+        while time.monotonic() < deadline and time.monotonic() - since < quiet:
+            self.executor.spin_once(timeout_sec=0.02)
+            if count() != seen:
+                seen, since = count(), time.monotonic()
+
     def status_of(self, episode: int, *states: str) -> Callable[[], bool]:
         """A condition: the latest status is of ``episode`` in one of ``states``."""
         def holds() -> bool:
@@ -323,7 +340,7 @@ class Scenario:
         if not self.spin_until(self.status_of(0, 'finished', 'failed'), 120,
                                'episode 0 finished'):
             return
-        self.spin_until(lambda: False, 0.5, 'the last messages')  # let the last ones land
+        self.settle()  # let the last ones land
         end_ns = int(probe.latest_status().get('time_ns', 0))
 
         other = copy.deepcopy(parameters)
@@ -331,7 +348,7 @@ class Scenario:
         self.announced[1] = announcement(1, end_ns, POSES_2, DURATION_2, other)
         self.marks['announced_1'] = probe.announce(self.announced[1])
         self.spin_until(self.status_of(1, 'failed'), 20, 'episode 1 refused')
-        self.spin_until(lambda: False, 0.3, 'the refusal to settle')
+        self.settle()
 
         start_2 = max(end_ns, int(probe.latest_status().get('time_ns', 0)))
         self.announced[2] = announcement(2, start_2, POSES_2, DURATION_2, parameters, seed=8)
@@ -339,7 +356,7 @@ class Scenario:
         if not self.spin_until(self.status_of(2, 'finished', 'failed'), 90,
                                'episode 2 finished'):
             return
-        self.spin_until(lambda: False, 0.5, 'the last messages')
+        self.settle()
         self.marks['shutdown'] = probe.announce({'episode': 3, 'shutdown': True})
 
 
