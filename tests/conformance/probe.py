@@ -340,8 +340,18 @@ class Scenario:
         if not self.spin_until(self.status_of(0, 'finished', 'failed'), 120,
                                'episode 0 finished'):
             return
-        self.settle()  # let the last ones land
         end_ns = int(probe.latest_status().get('time_ns', 0))
+        # The last poses (and their states) may be a reliable repair that comes after the
+        # final status (Fast DDS resends a lost sample on its next heartbeat, about 3 s).
+        since = self.marks['announced_0']
+
+        def last_poses_in() -> bool:
+            poses = [stamp for when, stamp, _ in probe.poses if when >= since]
+            states = [row for when, row in probe.robot_states if when >= since]
+            return end_ns in poses and len(states) <= len(poses)
+
+        self.spin_until(last_poses_in, 10, "episode 0's last poses")
+        self.settle()  # let the last ones land
 
         other = copy.deepcopy(parameters)
         other['mona']['ir_range'] = parameters['mona']['ir_range'] + 0.02

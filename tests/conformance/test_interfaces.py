@@ -405,7 +405,11 @@ def test_robot_states_one_with_every_world_poses_robot_i_at_index_i(run):
     assert msg_type == 'std_msgs/msg/UInt8MultiArray' and reliability == RELIABLE
     states = received_in_episode_0(run, run.probe.robot_states)
     poses = received_in_episode_0(run, run.probe.poses)
-    assert states and len(states) == len(poses), (len(states), len(poses))
+    marks = run.scenario.marks
+    assert states and len(states) == len(poses), (
+        len(states), len(poses), marks, [(when, stamp) for when, stamp, _ in poses[-2:]],
+        [when for when, _ in states[-2:]],
+        [(when, stamp) for when, stamp, _ in run.probe.poses if stamp == run.window(0)[1]])
     assert all(len(row) == POPULATION and set(row.tolist()) <= {0, 1, 2, 3}
                for _, row in states)
     assert all(row[4] == 0 for _, row in states)  # robot 4 never said its state
