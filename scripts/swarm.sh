@@ -8,9 +8,11 @@
 # with the same --domain and --peers IP,IP (a unicast Fast DDS profile instead of loopback).
 #
 # The work is done by `mona-swarm launch` (--help lists the options); this finds its Python:
-# the repository's .venv, else the python3 of a sourced colcon workspace. Exit status: 0 if
-# every node succeeded and ended by itself; 1 if a node failed or had to be stopped; 2 for bad
-# options or parameters; 124 on --timeout; 130 / 143 when stopped by SIGINT / SIGTERM.
+# the repository's .venv, else the python3 of a sourced colcon workspace. With --live the
+# live view keeps serving the final state after the run until Ctrl-C (or --linger SECONDS).
+# Exit status: 0 if every node succeeded and ended by itself (also after a linger's Ctrl-C);
+# 1 if a node failed or had to be stopped; 2 for bad options or parameters; 124 on --timeout;
+# 130 / 143 when stopped by SIGINT / SIGTERM.
 # See docs/running.md for the output layout, domain ids and the DDS profile.
 set -u
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

@@ -37,6 +37,7 @@ from swarm_world.world_messages import (
     cue_grid,
     cue_image,
     obstacle_markers,
+    robot_markers,
     robot_states,
     source_markers,
 )
@@ -148,3 +149,16 @@ def test_source_markers_are_rclpy_bytes_and_move_with_the_sources():
                                   in zip(field.names, positions.tolist()))
     assert [s[0] for s in shown[0]] == ['east', 'west']
     assert shown[0] != shown[1] != shown[2]  # they move
+
+
+def test_robot_markers_of_both_runners_are_the_same_message():
+    """The world node's /world/markers, coloured by the states it gathers, and the embedded
+    live view's: the same markers (padding aside)."""
+    poses = np.random.default_rng(3).uniform(0, 2.85, (6, 3))
+    states = np.array([0, 1, 2, 3, 2, 0], dtype=np.uint8)
+    msgtype = 'visualization_msgs/msg/MarkerArray'
+    ours = markers_cdr(poses, states, 0.04, NS)
+    theirs = bytes(serialize_message(robot_markers(poses, states, 0.04, NS)))
+    assert len(ours) == len(theirs)
+    assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
+        TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)

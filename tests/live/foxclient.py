@@ -21,6 +21,8 @@ import websockets
 from mcap_ros2._dynamic import generate_dynamic
 
 SUBPROTOCOL = 'foxglove.sdk.v1'
+#: The protocol's first name, which older Foxglove and Lichtblick clients offer alone.
+LEGACY_SUBPROTOCOL = 'foxglove.websocket.v1'
 
 
 @dataclass
@@ -31,13 +33,16 @@ class Capture:
     channels: dict[str, dict] = field(default_factory=dict)  #: topic -> advertised channel
     messages: dict[str, list[tuple[int, object]]] = field(default_factory=dict)
     times: list[int] = field(default_factory=list)  #: the server's time broadcasts
+    subprotocol: str = ''  #: the one the server chose
 
 
 async def _capture(url: str, topics: Iterable[str] | None, seconds: float,
-                   done: Callable[[Capture], bool] | None, decode: bool) -> Capture:
+                   done: Callable[[Capture], bool] | None, decode: bool,
+                   subprotocols: list[str]) -> Capture:
     capture = Capture()
-    async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None) as ws:
-        assert ws.subprotocol == SUBPROTOCOL
+    async with websockets.connect(url, subprotocols=subprotocols, max_size=None) as ws:
+        assert ws.subprotocol in subprotocols
+        capture.subprotocol = ws.subprotocol
         decoders: dict[int, tuple[str, Callable]] = {}
         deadline = time.monotonic() + seconds
         subscribed = False
@@ -74,12 +79,13 @@ async def _capture(url: str, topics: Iterable[str] | None, seconds: float,
 
 
 def capture(url: str, *, topics: Iterable[str] | None = None, seconds: float = 5.0,
-            done: Callable[[Capture], bool] | None = None, decode: bool = True) -> Capture:
-    """Connect to ``url``, subscribe to ``topics`` (default: every advertised one) and decode
-    what arrives for ``seconds`` or until ``done(capture)`` holds (``decode`` False: keep
-    each payload's size instead)."""
+            done: Callable[[Capture], bool] | None = None, decode: bool = True,
+            subprotocols: Iterable[str] = (SUBPROTOCOL,)) -> Capture:
+    """Connect to ``url`` offering ``subprotocols``, subscribe to ``topics`` (default: every
+    advertised one) and decode what arrives for ``seconds`` or until ``done(capture)`` holds
+    (``decode`` False: keep each payload's size instead)."""
     return asyncio.run(_capture(url, None if topics is None else set(topics), seconds, done,
-                                decode))
+                                decode, list(subprotocols)))
 
 
 def connect_when_up(url: str, timeout: float = 60.0, **kwargs) -> Capture:

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import json
 import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -22,19 +24,22 @@ from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.media.recorded import read_record
 from swarm_world.arena_markers import obstacles_from_markers
 
-from foxclient import Capture, connect_when_up
+from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 
 POPULATION, DURATION, PACE = 6, 60.0, 12.0
 #: The watched episode runs among the obstacles of docs/extending.md's example layout.
 LAYOUT = Path(__file__).parents[2] / 'examples' / 'obstacle_layout.yaml'
 
 
-def start_run(out: Path, *extra: str) -> tuple[subprocess.Popen, str]:
-    """``mona-swarm run --live --port 0`` in a subprocess; (process, the URL it prints)."""
+def start_run(out: Path, *extra: str, linger: str = '0',
+              duration: float = DURATION) -> tuple[subprocess.Popen, str]:
+    """``mona-swarm run --live --port 0 --linger 0`` in a subprocess; (process, the URL it
+    prints)."""
     process = subprocess.Popen(
         [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', str(POPULATION),
-         '--duration', str(DURATION), '--seed', '2', '--out', str(out), '--live', '--port',
-         '0', *extra], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+         '--duration', str(duration), '--seed', '2', '--out', str(out), '--live', '--port',
+         '0', '--linger', linger, *extra], stderr=subprocess.PIPE, stdout=subprocess.PIPE,
+        text=True)
     for line in process.stderr:
         found = re.search(r'live view on (ws://\S+)', line)
         if found:
@@ -150,3 +155,76 @@ def test_a_taken_port_is_an_error_naming_it(tmp_path):
         blocker.kill()
     assert result.returncode == 2
     assert f'127.0.0.1:{port}' in result.stderr
+
+
+# --- after the episode: --linger ------------------------------------------------------------
+
+def wait_for_linger(process: subprocess.Popen) -> None:
+    for line in process.stderr:
+        if 'keeps serving its final state' in line:
+            return
+    pytest.fail(f'the run never lingered; exit {process.wait(10)}')
+
+
+def final(capture: Capture) -> bool:
+    statuses = [json.loads(msg.data) for _, msg in capture.messages.get('/world/status', ())]
+    return any(s['state'] == 'finished' for s in statuses) and \
+        '/world/poses' in capture.messages and '/world/sources' in capture.messages and \
+        '/world/cue_map' in capture.messages and '/episode' in capture.messages
+
+
+def test_a_viewer_who_connects_after_the_episode_sees_its_end_until_ctrl_c(tmp_path):
+    """The run ends, writes every output, and keeps serving the final state: a client that
+    connects only then (offering only the protocol's older name) gets the finished status,
+    the last poses, the cue map and the sources; Ctrl-C then exits 0 with nothing lost."""
+    out = tmp_path / 'run'
+    process, url = start_run(out, '--bag', linger='600', duration=8.0)
+    try:
+        wait_for_linger(process)
+        # Every output is complete before the linger starts.
+        record = json.loads((out / 'episode.json').read_text())
+        assert record['duration'] == 8.0 and (out / 'metrics.csv').exists()
+        seen = connect_when_up(url, seconds=20, done=final, subprotocols=[LEGACY_SUBPROTOCOL])
+        assert seen.subprotocol == LEGACY_SUBPROTOCOL
+        assert final(seen), sorted(seen.messages)
+        end_ns = round(8.0 * 1e9)
+        log_time, poses = seen.messages['/world/poses'][-1]
+        assert log_time >= end_ns and len(poses.poses) == POPULATION
+        bag = read_episode_bag(out / 'bag')
+        assert [(p.position.x, p.position.y) for p in poses.poses] == \
+            [tuple(xy) for xy in bag.poses[-1][1][:, :2].tolist()]  # the bag's last poses
+        assert seen.messages['/world/cue_map'][-1][0] == log_time
+        assert process.poll() is None  # still serving
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 0, stderr
+    assert 'live view closed' in stderr and 'Traceback' not in stderr
+    assert json.loads((out / 'episode.json').read_text()) == record  # nothing rewritten
+    assert read_episode_bag(out / 'bag').status[-1][1]['state'] == 'finished'
+
+
+def test_linger_seconds_ends_by_itself(tmp_path):
+    started = time.monotonic()
+    process, url = start_run(tmp_path / 'run', linger='2', duration=2.0)
+    try:
+        wait_for_linger(process)
+        lingered = time.monotonic()
+        seen = connect_when_up(url, seconds=10, done=final)
+        assert final(seen)
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 0, stderr
+    assert 1.5 < time.monotonic() - lingered and time.monotonic() - started < 60
+    assert (tmp_path / 'run' / 'metrics.csv').exists()
+
+
+def test_linger_without_live_is_refused(tmp_path):
+    result = subprocess.run(
+        [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '3',
+         '--duration', '1', '--out', str(tmp_path / 'x'), '--linger', '5'],
+        capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and '--linger is for --live' in result.stderr
+    assert 'Traceback' not in result.stderr and not (tmp_path / 'x').exists()

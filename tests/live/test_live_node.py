@@ -7,15 +7,18 @@ metrics node publish; the client decodes them with the advertised ``ros2msg`` sc
 from __future__ import annotations
 
 import json
+import os
+import signal
 import socket
 import sys
 from pathlib import Path
 
 import pytest
 
+from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.system.live_node import NODE_TOPICS
 
-from foxclient import Capture, connect_when_up
+from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import SwarmRun  # noqa: E402
@@ -43,7 +46,7 @@ def watched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Capture, SwarmRun
     port = free_port()
     run = SwarmRun(tmp_path_factory.mktemp('live') / 'run',
                    ['--population', str(POPULATION), '--duration', str(DURATION),
-                    '--seed', '3', '--live', '--live-port', str(port)])
+                    '--seed', '3', '--live', '--live-port', str(port), '--linger', '0'])
     try:
         seen = connect_when_up(f'ws://127.0.0.1:{port}', timeout=120, seconds=120,
                                done=enough)
@@ -84,3 +87,44 @@ def test_the_client_sees_the_swarm_with_ros2_schemas(watched):
                            + msg.markers[0].header.stamp.nanosec for log_time, msg in markers)
     # The world's latched obstacles, repeated for the client: none in this arena.
     assert all(list(msg.markers) == [] for _, msg in seen.messages['/world/obstacles'])
+
+
+def final(capture: Capture) -> bool:
+    statuses = [json.loads(msg.data) for _, msg in capture.messages.get('/world/status', ())]
+    return any(s['state'] == 'finished' for s in statuses) and \
+        {'/world/poses', '/world/cue_map', '/world/sources', '/world/robot_states',
+         '/world/markers', '/episode'} <= set(capture.messages)
+
+
+def test_after_the_run_the_live_view_serves_its_final_state_until_ctrl_c(tmp_path):
+    """swarm.sh --live: the run finishes, every record is complete, and the live node keeps
+    serving the final state; a client that connects only then (offering only the protocol's
+    older name) sees the finished status, the last poses and states, the cue map and the
+    sources; Ctrl-C then ends the script with exit 0."""
+    port = free_port()
+    run = SwarmRun(tmp_path / 'run', ['--population', str(POPULATION), '--duration', '8',
+                                      '--seed', '4', '--live', '--live-port', str(port)])
+    try:
+        run.wait_for(lambda: 'keeps serving its final state' in run.stderr, 'the linger')
+        report = json.loads((run.out / 'run.json').read_text())
+        assert (run.out / 'episode_0' / 'bag' / 'metadata.yaml').exists()  # closed
+        seen = connect_when_up(f'ws://127.0.0.1:{port}', timeout=30, seconds=30, done=final,
+                               subprotocols=[LEGACY_SUBPROTOCOL])
+        assert seen.subprotocol == LEGACY_SUBPROTOCOL and final(seen), sorted(seen.messages)
+        log_time, poses = seen.messages['/world/poses'][-1]
+        assert log_time >= 8 * 10**9 and len(poses.poses) == POPULATION  # the end's poses
+        states = bytes(seen.messages['/world/robot_states'][-1][1].data)
+        assert len(states) == POPULATION
+        # The world's markers are coloured by the states it gathers (the embedded colours).
+        markers = seen.messages['/world/markers'][-1][1].markers
+        assert [(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3))
+                for m in markers] == [tuple(round(c, 3) for c in STATE_COLOURS[s][:3])
+                                      for s in states]
+        assert run.process.poll() is None  # still serving
+        os.killpg(run.process.pid, signal.SIGINT)
+        status = run.wait(60)
+    finally:
+        run.stop()
+    assert status == 0, run.stderr
+    assert 'done:' in run.stderr and 'FAILED' not in run.stderr
+    assert json.loads((run.out / 'run.json').read_text()) == report  # nothing rewritten

@@ -38,6 +38,8 @@ CASES = [
             r"SWARM_DOMAIN_ID 'x': expected 0\.\.232", env={'SWARM_DOMAIN_ID': 'x'}),
     refused('launch-domain-233', ['--population', '3', '--domain', '233'], r'--domain.*233'),
     refused('launch-speed-300', ['--speed', '300'], r'controller\.speed = 3\.0 is out of range'),
+    refused('launch-linger-without-live', ['--population', '3', '--linger', '5'],
+            r'--linger is for --live'),
     refused('launch-core-without-domain', ['--role', 'core'],
             r'--role core: give --domain ID'),
     refused('launch-over-a-run', ['--population', '3', '--out', '{tmp}/earlier'],

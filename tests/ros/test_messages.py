@@ -78,9 +78,9 @@ def test_cue_image_has_the_top_row_first_and_the_grid_the_origin_first():
     assert cells[3, 0] == 100 and cells[0, 2] == 50 and cells.min() == 0
 
 
-def test_markers_are_red_while_cleaning():
+def test_markers_are_coloured_by_state_red_while_waiting():
     markers = robot_markers(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]),
-                            np.array([False, True]), 0.04, 5)
+                            np.array([0, 2], dtype=np.uint8), 0.04, 5)
     colours = [(m.color.r, m.color.g) for m in markers.markers]
     assert colours[0][1] > colours[0][0] and colours[1][0] > colours[1][1]
     assert [m.id for m in markers.markers] == [0, 1]

@@ -31,12 +31,9 @@ MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 #: Little-endian CDR's encapsulation header (what rclpy writes on this machine).
 CDR_LE = b'\x00\x01\x00\x00'
 WORLD_FRAME = 'world'
-#: RGBA per controller state (FOLLOW, AVOID, WAIT, TURN of mona_controller.controller): the
-#: colours of the live view's markers and of the videos.
-STATE_COLOURS = ((0.20, 0.75, 0.25, 1.0),  # follow: green
-                 (1.00, 0.60, 0.00, 1.0),  # avoid: orange
-                 (0.90, 0.10, 0.10, 1.0),  # wait (and clean): red
-                 (0.25, 0.45, 1.00, 1.0))  # turn: blue
+#: RGBA per controller state: the colours of the robot markers and of the videos
+#: (:data:`swarm_world.arena_markers.STATE_COLOURS`, which the world node uses too).
+STATE_COLOURS = arena_markers.STATE_COLOURS
 #: The drawn height of a robot's cylinder marker (m).
 MARKER_HEIGHT = 0.05
 

@@ -94,12 +94,15 @@ def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
     return msg
 
 
-def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
+def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
                   stamp_ns: int) -> MarkerArray:
-    """One cylinder per robot, green while moving, red while cleaning."""
+    """One cylinder per robot (ns 'robots', id = robot), coloured by its controller state
+    (:data:`swarm_world.arena_markers.STATE_COLOURS`: follow green, avoid orange, wait and
+    clean red, turn blue), as the embedded runner's :func:`swarm_metrics.world_cdr.markers_cdr`."""
     out = MarkerArray()
     stamp = ns_to_stamp(stamp_ns)
-    green, red = ColorRGBA(g=0.8, a=1.0), ColorRGBA(r=0.9, a=1.0)
+    palette = [ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in arena_markers.STATE_COLOURS]
+    last = len(palette) - 1
     for k, (x, y, _) in enumerate(poses.tolist()):
         marker = Marker(ns='robots', id=k, type=Marker.CYLINDER, action=Marker.ADD)
         marker.header.frame_id = WORLD_FRAME
@@ -109,7 +112,7 @@ def robot_markers(poses: np.ndarray, cleaning: np.ndarray, body_radius: float,
         marker.pose.orientation.w = 1.0
         marker.scale.x = marker.scale.y = 2 * body_radius
         marker.scale.z = MARKER_HEIGHT
-        marker.color = red if k < len(cleaning) and cleaning[k] else green
+        marker.color = palette[min(int(states[k]), last) if k < len(states) else 0]
         out.markers.append(marker)
     return out
 

@@ -541,7 +541,7 @@ class WorldNode(Node):
         self.sources_pub.publish(source_markers(
             field.names, field.source_positions(self.world.time_ns / 1e9), self.time_ns))
         self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
-        self.markers_pub.publish(robot_markers(self.world.poses, self.world.cleaning,
+        self.markers_pub.publish(robot_markers(self.world.poses, self.states,
                                                self.mona.body_radius, self.time_ns))
         if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
             self._publish_poses()

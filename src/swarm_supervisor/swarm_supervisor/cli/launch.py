@@ -125,6 +125,10 @@ def add_options(parser: argparse.ArgumentParser) -> None:
         help='also serve the run to Foxglove (the live node, swarm_supervisor.system.live_node)')
     add('--live-port', type=bounded(int, 0, 65535), default=8765, metavar='PORT',
         help='--live: its WebSocket port on localhost (default 8765)')
+    add('--linger', type=bounded(float, 0.0, 1e6), metavar='SECONDS',
+        help='--live: after the run, keep serving its final state for SECONDS (default: '
+             'until Ctrl-C, which then exits 0: the outputs are complete; 0: stop with the '
+             'run)')
     add('--domain', type=bounded(int, 0, 232), metavar='ID',
         help='ROS domain id, the same on every host of a split run (default: a free one, '
              'or SWARM_DOMAIN_ID)')

@@ -8,7 +8,9 @@ embedded episodes like the node system's.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from tqdm import tqdm
@@ -67,6 +69,10 @@ def register(subparsers) -> None:
     parser.add_argument('--port', type=bounded(int, 0, 65535), default=DEFAULT_PORT,
                         help=f'--live: the WebSocket port (default {DEFAULT_PORT}; 0: any free '
                              'one, printed)')
+    parser.add_argument('--linger', type=bounded(float, 0.0, 1e6), metavar='SECONDS',
+                        help='--live: after the episode, keep serving its final state for '
+                             'SECONDS (default: until Ctrl-C, which then exits 0; the outputs '
+                             'are written before)')
     parser.add_argument('--pace', type=bounded(float, 0.001, 1e6), metavar='X',
                         help='run at X times real time (e.g. 10: ten sim seconds per second), '
                              'to follow it live (default: as fast as possible)')
@@ -117,13 +123,15 @@ def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer |
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
         observers.append(recorder)
+    live = None
     if server is not None:
         announce(server, 'mona-swarm run')
-        observers.append(LiveView(server, pace=args.pace))
+        live = LiveView(server, pace=args.pace)
+        observers.append(live)
     elif args.pace is not None:
         observers.append(Pacer(args.pace))
     result = _run(config, observers)
-    extra = {}
+    extra: dict[str, str] = {}
     if recorder is not None:
         try:
             extra['bag'] = str(recorder.check(result).path)
@@ -137,7 +145,28 @@ def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer |
           f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s; '
           f'{result.real_time_factor:.0f}x real time'
           + (f'; bag {extra["bag"]}' if extra else ''))
+    if live is not None:
+        linger(live, server, args.linger)
     return 0
+
+
+def linger(live: LiveView, server: LiveServer, seconds: float | None) -> None:
+    """Serve the finished episode's final state for ``seconds`` (None: until Ctrl-C or
+    SIGTERM); the outputs are complete already, so stopping loses nothing."""
+    if seconds == 0:
+        return
+    until = 'Ctrl-C' if seconds is None else f'{seconds:g} s or Ctrl-C'
+    print(f'mona-swarm run: the episode has ended; the live view on {server.url} keeps '
+          f'serving its final state until {until}', file=sys.stderr, flush=True)
+    stop = threading.Event()
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    try:
+        live.linger(seconds, stop)
+    except KeyboardInterrupt:
+        pass  # the way to end an endless linger: not a failure
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    print('mona-swarm run: live view closed', file=sys.stderr, flush=True)
 
 
 def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
@@ -154,6 +183,9 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
                              f'{repeated[0]}: give each seed once')
     if len(seeds) > 1 and (args.live or args.pace is not None):
         raise ParameterError('--live and --pace take one seed')
+    if args.linger is not None and not args.live:
+        raise ParameterError('--linger is for --live: it keeps the live view up after the '
+                             'episode')
     base = load_config(args.config)
     episode = {key: value for key, value in (('population', args.population),
                                               ('duration', args.duration))

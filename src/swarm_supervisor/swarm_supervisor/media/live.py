@@ -15,11 +15,16 @@ subscribes to (none connected: nothing is built), and at most ``rate`` times per
 (poses, robot markers and states, clock), :data:`SLOW_RATE` times (status, a metric sample)
 or ``map_rate`` times (the cue map and grid, and only once the world would have published a
 new one).
+
+When the episode has ended, :meth:`LiveView.linger` keeps serving its final state (repeated
+once a second for clients that connect then) until a wall-clock limit or a stop, so a viewer
+is not cut off mid-look (``mona-swarm run --live --linger``).
 """
 
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Callable
 
@@ -37,6 +42,7 @@ from mona_controller.contract import (
     OBSTACLES,
     POSES,
     ROBOT_STATES,
+    SOURCES,
     STATUS,
     Announcement,
     WorldState,
@@ -53,17 +59,20 @@ from swarm_metrics.world_cdr import (
     markers_cdr,
     obstacles_cdr,
     pose_array_cdr,
+    sources_cdr,
     states_cdr,
     string_cdr,
 )
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
+from swarm_supervisor.media.relay import SDK_SUBPROTOCOL, Relay
 from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 
-#: Foxglove's WebSocket subprotocol as served by foxglove-sdk 0.30.
-SUBPROTOCOL = 'foxglove.sdk.v1'
+#: Foxglove's WebSocket subprotocol as served by foxglove-sdk 0.30 (the relay in front of it
+#: also accepts its older name, :data:`swarm_supervisor.media.relay.LEGACY_SUBPROTOCOL`).
+SUBPROTOCOL = SDK_SUBPROTOCOL
 DEFAULT_PORT = 8765
 #: Frequent messages (poses, markers, states, clock) per wall second, at most.
 RATE = 10.0
@@ -104,6 +113,11 @@ class LiveServer:
     """A Foxglove WebSocket server on ``host:port`` with a channel per topic of
     :func:`live_topics` (raw CDR, ``ros2msg`` schemas) and sim time as its clock.
 
+    Clients connect to a :class:`~swarm_supervisor.media.relay.Relay` on ``host:port``, which
+    accepts both names of the subprotocol (``foxglove.sdk.v1`` and the older
+    ``foxglove.websocket.v1``) and relays each client to the foxglove-sdk server, which
+    listens on a free port of 127.0.0.1 (it accepts only the first name).
+
     Args:
         port: TCP port (0: any free one; :attr:`port` tells which).
         host: interface to listen on (localhost by default: nothing leaves the machine).
@@ -120,10 +134,15 @@ class LiveServer:
                                         message_encoding='cdr', context=self.context)
                          for topic, msgtype in (topics or live_topics()).items()}
         try:
-            self.server = foxglove.start_server(name='mona-swarm', host=host, port=port,
+            self.server = foxglove.start_server(name='mona-swarm', host='127.0.0.1', port=0,
                                                 capabilities=[Capability.Time],
                                                 context=self.context)
         except Exception as error:  # the SDK raises its own error types
+            raise RuntimeError(f'the live view cannot start its server: {error}') from None
+        try:
+            self.relay = Relay(host, port, self.server.port)
+        except RuntimeError as error:
+            self.server.stop()
             raise RuntimeError(f'the live view cannot listen on {host}:{port}: '
                                f'{error}') from None
         self.host = host
@@ -131,8 +150,8 @@ class LiveServer:
 
     @property
     def port(self) -> int:
-        """The TCP port the server listens on (useful when 0 was asked for)."""
-        return self.server.port
+        """The TCP port clients connect to (useful when 0 was asked for)."""
+        return self.relay.port
 
     @property
     def url(self) -> str:
@@ -158,6 +177,7 @@ class LiveServer:
 
     def stop(self) -> None:
         """Close every connection and stop listening."""
+        self.relay.stop()
         self.server.stop()
 
 
@@ -181,6 +201,7 @@ class LiveView(EpisodeObserver):
         self.start_ns = start_ns
         self.announcement = b''
         self.obstacles = b''
+        self.sources = b''  # the latest sources' markers sent, repeated for late joiners
         self.status = b''
         self.cleaning_events = 0
         self._next_frame = self._next_map = self._next_repeat = self._next_slow = 0.0
@@ -193,6 +214,7 @@ class LiveView(EpisodeObserver):
         # The world node's cue map period: a new map is worth sending once per period.
         self._map_ns = round(WorldNodeParams.map_period * 1e9)
         self.frames = 0  #: frequent-message rounds sent (for the benchmark)
+        self._final: Episode | None = None  # the finished episode, for linger()
 
     # --- the observer ---------------------------------------------------------------------
 
@@ -235,6 +257,24 @@ class LiveView(EpisodeObserver):
         self._metrics(episode)  # the last sample, whatever the throttle
         self._status(episode, WorldState.FINISHED)
         self._frame(episode, time.perf_counter(), force=True)
+        self._final = episode
+
+    def linger(self, seconds: float | None, stop: threading.Event | None = None) -> None:
+        """After :meth:`finish`: keep serving the episode's final state, sent again every
+        :data:`REPEAT_PERIOD` for clients that connect now, for ``seconds`` of wall time
+        (None: until ``stop`` is set, or a KeyboardInterrupt)."""
+        episode = self._final
+        if episode is None:
+            raise RuntimeError('linger() serves a finished episode: run it first')
+        end = None if seconds is None else time.monotonic() + seconds
+        stop = stop or threading.Event()
+        while True:
+            self._status(episode, WorldState.FINISHED)
+            self._metrics(episode)
+            self._frame(episode, time.perf_counter(), force=True)
+            wait = REPEAT_PERIOD if end is None else min(REPEAT_PERIOD, end - time.monotonic())
+            if wait <= 0 or stop.wait(wait):
+                return
 
     # --- messages ---------------------------------------------------------------------------
 
@@ -265,12 +305,19 @@ class LiveView(EpisodeObserver):
             server.publish(CUE_MAP, now_ns, lambda: cue_image_cdr(world.cue, now_ns))
             server.publish(CUE_GRID, now_ns, lambda: cue_grid_cdr(
                 world.cue, episode.config.world.cell_size, now_ns))
+            if server.wanted(SOURCES):  # the world publishes the sources with the map
+                field = world.field
+                self.sources = sources_cdr(field.names,
+                                           field.source_positions(episode.time_ns / 1e9), now_ns)
+                server.publish(SOURCES, now_ns, self.sources)
         if force or wall >= self._next_repeat:
             # Topics Foxglove shows as state, sent again so a client that connects late has
             # them (the bags' latched topics: the announcement, the static obstacles).
             self._next_repeat = wall + REPEAT_PERIOD
             server.publish(EPISODE, self.start_ns, self.announcement)
             server.publish(OBSTACLES, self.start_ns, self.obstacles)  # as the bag has it
+            if self.sources:
+                server.publish(SOURCES, now_ns, self.sources)
 
     def _status(self, episode: Episode, state: WorldState) -> None:
         if not self.server.wanted(STATUS):

@@ -117,8 +117,10 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                               '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
                               '-p', 'recorders:=metrics']
     if getattr(options, 'live', False):
+        linger = getattr(options, 'linger', None)
         commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.live_node',
-                            '--ros-args', '-p', f'port:={options.live_port}']
+                            '--ros-args', '-p', f'port:={options.live_port}',
+                            '-p', f'linger:={-1.0 if linger is None else float(linger)}']
     kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
     return {name: command for name, command in commands.items()
             if name.partition('_')[0] in kinds}
@@ -167,6 +169,7 @@ class Run:
         self.stopping = ''  # the name of the signal that asked us to stop
         self.needed: dict[int, signal.Signals] = {}  # pid -> last signal of the stop ladder
         self.seen_shm: set[str] = set()
+        self.lingering = False  # the run is over and the live node serves its final state
         (out / 'processes.tsv').write_text('')
 
     def catch(self, sig: int, frame: object) -> None:
@@ -235,11 +238,26 @@ class Run:
                 return 'timeout'
         return ''
 
-    def wind_down(self, outcome: str) -> None:
-        """Give the nodes their chance to end by themselves (a signal cuts it short)."""
+    def wind_down(self, outcome: str, linger: float | None = 0.0) -> None:
+        """Give the nodes their chance to end by themselves (a signal cuts it short); after a
+        finished run, let the live node serve its final state for ``linger`` s (None: until
+        a signal)."""
         if outcome == 'finished':
             # After the shutdown announcement the nodes end by themselves; give them time to.
-            wait_gone(self.live(), SHUTDOWN_GRACE, self.interrupted)
+            live = self.nodes.get('live')
+            wait_gone([p for p in self.live() if p is not live], SHUTDOWN_GRACE,
+                      self.interrupted)
+            if live is not None and linger != 0 and live.poll() is None \
+                    and not self.stopping:
+                self.lingering = True
+                say(f'the run is done ({self.out}); the live view keeps serving its final '
+                    'state ' + ('until Ctrl-C' if linger is None else
+                                f'for {linger:g} s or until Ctrl-C'))
+                wait_gone([live], 1e9 if linger is None else linger + SHUTDOWN_GRACE,
+                          self.interrupted)
+            else:
+                wait_gone([live] if live is not None else [], SHUTDOWN_GRACE,
+                          self.interrupted)
         elif outcome == 'failed' and 'world' in self.nodes \
                 and self.nodes['world'].poll() is not None \
                 and self.nodes['metrics'].poll() is None:
@@ -266,8 +284,8 @@ class Run:
                 # Stopped by us: fine after a signal or another node's failure. After a
                 # finished run it should have ended by itself on the shutdown announcement;
                 # one that had to be stopped may not have closed its outputs.
-                if outcome != 'finished':
-                    continue
+                if outcome != 'finished' or (name == 'live' and self.lingering):
+                    continue  # (a lingering live view is stopped by Ctrl-C: its way to end)
                 say(f'FAILED {what}: did not end by itself after the shutdown; stopped by '
                     f'SIGINT; see {log}')
             elif process.returncode != 0:
@@ -288,6 +306,8 @@ def launch(options: argparse.Namespace) -> int:
         executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
         config = check_parameters(options.config, run_overrides(options))
         check_roles(options, config.episode.population)
+        if getattr(options, 'linger', None) is not None and not options.live:
+            raise UsageError('--linger is for --live: it keeps the live view up after the run')
         domain = options.domain if options.domain is not None else forced_domain()
         if options.role != 'all' and domain is None:
             raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
@@ -354,7 +374,7 @@ def launch(options: argparse.Namespace) -> int:
         outcome = run.wait()
         if run.stopping:
             say(f'{run.stopping} received: stopping every node')
-        run.wind_down(outcome)
+        run.wind_down(outcome, getattr(options, 'linger', 0.0) if options.live else 0.0)
     finally:  # also on an unexpected error here: no node outlives the run
         run.stop()
     failures = run.verdict(outcome)

@@ -6,8 +6,11 @@ as raw CDR (the bytes the metrics node records) and forwards them to a
 definitions and the live view equals the bag. The frequent topics are thinned to what a
 person can watch (poses, markers and clock at most ``rate`` per wall second, the cue map and
 grid ``map_rate``); the announcement, the latest status and the obstacles are repeated once a
-second for a client that connects late. Exit status: 0 after the supervisor's shutdown
-announcement or SIGINT/SIGTERM, 2 for a bad parameter or a port it cannot listen on.
+second for a client that connects late. After the supervisor's shutdown announcement it
+keeps serving the run's final state (the latest message of every topic, sent again once a
+second) for ``linger`` wall seconds (-1: until SIGINT/SIGTERM; 0: it stops at once). Exit
+status: 0 after the shutdown announcement and its linger, or SIGINT/SIGTERM; 2 for a bad
+parameter or a port it cannot listen on.
 
     python -m swarm_supervisor.system.live_node --ros-args -p port:=8765
 """
@@ -72,6 +75,9 @@ class LiveNodeParams:
                         doc='poses, markers and clock forwarded per wall second, at most')
     map_rate: float = param(MAP_RATE, unit='1/s (wall)', low=0.1, high=1000.0,
                             doc='cue maps and grids forwarded per wall second, at most')
+    linger: float = param(0.0, unit='s (wall)', low=-1.0, high=1e6,
+                          doc='after the shutdown announcement, keep serving the final state '
+                              'this long (-1: until stopped by SIGINT/SIGTERM; 0: stop at once)')
 
     def __post_init__(self) -> None:
         validate(self)
@@ -92,6 +98,9 @@ class LiveNode(Node):
                              qos.CUE_GRID: map_period}
         self.last_sent: dict[str, float] = {}
         self.sim_ns = 0  # the latest sim time seen: the log time of unstamped messages
+        #: The latest message of every topic, (log time, CDR): the final state, while lingering.
+        self.latest: dict[str, tuple[int, bytes]] = {}
+        self.lingering = False
         #: The announcement, the latest status, the obstacles (the world's latched scenery)
         #: and the sources where they were last.
         self.latched: dict[str, bytes] = {}
@@ -129,16 +138,19 @@ class LiveNode(Node):
         if stamp > self.sim_ns:
             self.sim_ns = stamp
             self.server.set_time(stamp)
+        self.latest[topic] = (stamp, bytes(data))
         if self._due(topic):
             self.server.publish(topic, stamp, bytes(data))
 
     def _on_unstamped(self, topic: str, data: bytes) -> None:
         # A metric sample is published just after the pose that completes it: the latest
         # sim time is that pose's, within a sample period of the sample's own time.
+        self.latest[topic] = (self.sim_ns, bytes(data))
         self.server.publish(topic, self.sim_ns, bytes(data))
 
     def _on_states(self, topic: str, data: bytes) -> None:
         # Published just before the poses they go with: at the latest sim time, thinned.
+        self.latest[topic] = (self.sim_ns, bytes(data))
         if self._due(topic):
             self.server.publish(topic, self.sim_ns, bytes(data))
 
@@ -149,17 +161,42 @@ class LiveNode(Node):
     def _on_episode(self, topic: str, data: bytes) -> None:
         document = json.loads(bytes(data)[8:].rstrip(b'\x00').decode())
         if document.get('shutdown'):
-            self.get_logger().info('shutdown announced')
-            if not self.done.done():
-                self.done.set_result(0)
+            self._linger()
             return
         self.latched[topic] = bytes(data)
         self.server.publish(topic, int(document.get('start_ns', self.sim_ns)), bytes(data))
 
+    def _linger(self) -> None:
+        """The run is over: stop now, or keep serving its final state for ``linger``."""
+        linger = self.options.linger
+        if linger == 0 or self.lingering:
+            if linger == 0 and not self.done.done():
+                self.get_logger().info('shutdown announced')
+                self.done.set_result(0)
+            return
+        self.lingering = True
+        until = 'until stopped' if linger < 0 else f'for {linger:g} s'
+        self.get_logger().info(f'shutdown announced: serving the final state on '
+                               f'{self.server.url} {until}')
+        self._repeat()
+        if linger > 0:
+            self._linger_timer = self.create_timer(
+                linger, self._stop_lingering, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _stop_lingering(self) -> None:
+        self.destroy_timer(self._linger_timer)
+        if not self.done.done():
+            self.done.set_result(0)
+
     def _repeat(self) -> None:
-        """The latched topics again, for clients that joined since."""
+        """The latched topics again, for clients that joined since; while lingering, the
+        latest message of every topic (the run's final state)."""
         for topic, data in self.latched.items():
             self.server.publish(topic, self.sim_ns, data)
+        if self.lingering:
+            for topic, (log_ns, data) in self.latest.items():
+                if topic not in self.latched:
+                    self.server.publish(topic, log_ns, data)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -1,0 +1,90 @@
+"""Both names of the subprotocol: a real client offering only ``foxglove.websocket.v1`` (what
+older Foxglove builds and Lichtblick releases offer) is refused by the foxglove-sdk server
+itself and served through the live view's relay; one offering both gets ``foxglove.sdk.v1``;
+one offering neither is refused with HTTP 400, as the SDK refuses it."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+
+import pytest
+import websockets
+
+from mona_controller.contract import CLOCK, POSES
+from swarm_metrics.world_cdr import clock_cdr, pose_array_cdr
+from swarm_supervisor.media.live import LiveServer
+
+from foxclient import LEGACY_SUBPROTOCOL, SUBPROTOCOL, Capture, capture
+
+NS = 5_000_000_000
+
+
+@pytest.fixture
+def server():
+    live = LiveServer(0, topics={POSES: 'geometry_msgs/msg/PoseArray',
+                                 CLOCK: 'rosgraph_msgs/msg/Clock'})
+    try:
+        yield live
+    finally:
+        live.stop()
+
+
+def handshake(url: str, offered: list[str]) -> str:
+    """The subprotocol the server chose, or ``'HTTP <status>'`` if it refused."""
+    async def connect() -> str:
+        try:
+            async with websockets.connect(url, subprotocols=offered) as ws:
+                return ws.subprotocol
+        except websockets.InvalidStatus as error:
+            return f'HTTP {error.response.status_code}'
+    return asyncio.run(connect())
+
+
+def watch(server: LiveServer, offered: list[str]) -> Capture:
+    """A client offering ``offered`` subscribes while the server publishes poses."""
+    result: list[Capture] = []
+    client = threading.Thread(target=lambda: result.append(capture(
+        server.url, subprotocols=offered, seconds=20.0,
+        done=lambda seen: len(seen.messages.get(POSES, ())) >= 3)))
+    client.start()
+    k = 0
+    while client.is_alive():
+        k += 1
+        server.set_time(NS + k)
+        server.publish(POSES, NS + k, pose_array_cdr([[1.0, 2.0, 0.5], [2.0, 1.0, -1.0]],
+                                                      NS + k))
+        server.publish(CLOCK, NS + k, clock_cdr(NS + k))
+        client.join(0.02)
+    return result[0]
+
+
+def test_the_sdk_server_alone_refuses_the_older_name(server):
+    """Why the relay exists (foxglove-sdk 0.30.3): its own port answers 400."""
+    sdk = f'ws://127.0.0.1:{server.server.port}'
+    assert handshake(sdk, [SUBPROTOCOL]) == SUBPROTOCOL
+    assert handshake(sdk, [LEGACY_SUBPROTOCOL]) == 'HTTP 400'
+
+
+@pytest.mark.parametrize('offered, chosen', [
+    ([SUBPROTOCOL], SUBPROTOCOL),
+    ([LEGACY_SUBPROTOCOL], LEGACY_SUBPROTOCOL),
+    ([LEGACY_SUBPROTOCOL, SUBPROTOCOL], SUBPROTOCOL),  # current Lichtblick offers both
+    (['foxglove.websocket.v2'], 'HTTP 400'),
+    ([], 'HTTP 400'),
+])
+def test_the_live_view_negotiates_either_name(server, offered, chosen):
+    assert handshake(server.url, offered) == chosen
+
+
+def test_a_client_offering_only_the_older_name_sees_the_channels_and_messages(server):
+    seen = watch(server, [LEGACY_SUBPROTOCOL])
+    assert seen.subprotocol == LEGACY_SUBPROTOCOL
+    assert seen.server_info['name'] == 'mona-swarm' and 'time' in seen.server_info['capabilities']
+    assert set(seen.channels) == {POSES, CLOCK}
+    poses = seen.messages[POSES]
+    assert len(poses) >= 3
+    log_time, msg = poses[-1]
+    assert [(p.position.x, p.position.y) for p in msg.poses] == [(1.0, 2.0), (2.0, 1.0)]
+    assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == log_time > NS
+    assert seen.times and seen.times[-1] > NS  # the server's clock comes through too
