@@ -514,22 +514,35 @@ def test_cue_grid_is_the_same_raster_scaled_to_0_100_from_the_world_origin(run):
     assert np.abs(values - image.astype(float) * 100 / 255).max() <= 1.0
 
 
-def test_markers_one_cylinder_per_robot_green_moving_red_cleaning(run):
+def colour_name(color) -> str:
+    """The page's name of a marker colour: follow green, avoid orange, wait and clean red,
+    turn blue."""
+    r, g, b = color.r, color.g, color.b
+    if b > r and b > g:
+        return 'blue'
+    if g > r:
+        return 'green'
+    return 'orange' if g > 0.35 * r else 'red'
+
+
+def test_markers_one_cylinder_per_robot_coloured_by_its_controller_state(run):
     """`/world/markers`: `visualization_msgs/MarkerArray`, every `map_period`: one cylinder
-    per robot, green moving, red cleaning (at the end of episode 0 robot 3 cleans, robot 4
-    does not)."""
+    per robot (ns `robots`, id = robot) coloured by its controller state (its latest
+    `state`): follow green, avoid orange, wait and clean red, turn blue (at the end of
+    episode 0 robot 3 says 2, wait and clean; robot 4 never said a state: 0, follow)."""
     arrays = [msg for msg in run.maps(0, 'markers') if len(msg.markers) == POPULATION]
     assert arrays, 'no marker array with one marker per robot in episode 0'
     last = arrays[-1]
-    assert all(m.type == 3 for m in last.markers)  # CYLINDER
+    assert all(m.type == 3 and m.ns == 'robots' for m in last.markers)  # CYLINDER
+    assert sorted(m.id for m in last.markers) == list(range(POPULATION))
     poses = run.poses_near(stamp_of(last))
     assert poses is not None
     colour = {}
     for marker in last.markers:
         where = np.array([marker.pose.position.x, marker.pose.position.y])
-        robot = int(np.argmin(np.hypot(*(poses[:, :2] - where).T)))
-        colour[robot] = 'red' if marker.color.r > marker.color.g else 'green'
-    assert len(colour) == POPULATION
+        assert np.hypot(*(poses[marker.id, :2] - where)) < 1e-6 + \
+            run.implementation.pose_tolerance, marker.id
+        colour[marker.id] = colour_name(marker.color)
     assert colour[3] == 'red' and colour[4] == 'green', colour
 
 
