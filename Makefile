@@ -8,7 +8,8 @@ PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware
+.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware \
+	conformance
 
 venv: $(VENV)/.installed
 
@@ -66,6 +67,12 @@ firmware-tools:
 firmware: firmware-tools
 	$(MAKE) -C firmware/mona
 	$(MAKE) -C firmware/sim
+
+# docs/interfaces.md as tests against a world-side implementation (make test runs it on the
+# world node): WORLD is a name of tests/conformance/implementations.py or a command line
+WORLD ?= world
+conformance: venv
+	$(PY) -m pytest tests/conformance -q --world-cmd '$(WORLD)'
 
 bench: venv
 	$(PY) bench/bench_embedded.py
