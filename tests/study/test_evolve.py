@@ -70,6 +70,8 @@ def test_an_interrupted_and_resumed_evolution_equals_an_uninterrupted_one(tmp_pa
     ({'hidden': 0}, r'evolve.hidden = 0 is out of range'),
     ({'duration': 'long'}, r"evolve.duration = 'long': expected a number"),
     ({'config': 'missing.yaml'}, r'evolve.config: cannot read'),
+    ({'max_speed': 2.0}, r'evolve.max_speed = 2.0 is out of range'),
+    ({'clean_stops': 'yes'}, r"evolve.clean_stops = 'yes': expected true or false"),
 ])
 def test_a_bad_design_is_refused_with_exit_2_naming_the_key(tmp_path, changes, message):
     design = write_design(tmp_path / 'bad.yaml', **changes)
@@ -103,3 +105,22 @@ def test_the_post_evaluation_pairs_the_best_genome_with_beeclust_on_held_out_see
     rows = read_csv(tmp_path / 'out' / 'compare.csv')
     assert [int(row['seed']) for row in rows] == seeds
     assert (tmp_path / 'out' / 'compare.png').stat().st_size > 0
+
+
+def test_an_evolution_extended_by_raising_generations_equals_one_run_of_them(tmp_path):
+    whole, parts = tmp_path / 'whole', tmp_path / 'parts'
+    full = write_design(tmp_path / 'full.yaml')
+    short = write_design(tmp_path / 'short.yaml', generations=TINY['generations'] - 1)
+    subprocess.run(command(full, whole), check=True, capture_output=True)
+    subprocess.run(command(short, parts), check=True, capture_output=True)
+    assert len(without_wall_time(parts)) == TINY['generations'] - 1
+    subprocess.run(command(full, parts), check=True, capture_output=True)
+    assert without_wall_time(parts) == without_wall_time(whole)
+    assert (parts / 'best.npz').read_bytes() == (whole / 'best.npz').read_bytes()
+    assert yaml.safe_load((parts / 'design.yaml').read_text())['evolve']['generations'] == \
+        TINY['generations']
+    # Fewer generations than the folder holds is refused, naming the key.
+    fewer = write_design(tmp_path / 'fewer.yaml', generations=1)
+    refused = subprocess.run(command(fewer, parts), capture_output=True, text=True)
+    assert refused.returncode == 2, refused.stderr
+    assert 'more than evolve.generations = 1' in refused.stderr

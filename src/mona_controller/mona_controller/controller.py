@@ -86,6 +86,15 @@ class ControllerParams:
     network_weights_sha256: str = param('', doc='the SHA-256 of network_weights, worked '
                                                 "out on loading (a value given must match "
                                                 "the file's)")
+    network_max_speed: float = param(0.0, unit='m/s', low=0.0, high=1.0,
+                                     doc="the 'network' kind's top wheel speed, forward or "
+                                         'back (its wheel outputs are scaled to it, within '
+                                         "mona.max_wheel_command); 0: the Mona's top command")
+    network_clean_stops: bool = param(False,
+                                      doc="the 'network' kind cleans only standing: where "
+                                          'its cleaner output is on, both wheels are '
+                                          "commanded 0 (as BEECLUST's robots clean only "
+                                          'while they wait)')
 
     def __post_init__(self) -> None:
         validate(self, 'controller.')

@@ -15,6 +15,10 @@ A design is a YAML file with one mapping, ``evolve``::
       sigma: 0.5                   # CMA-ES initial step size (the genome starts at zero)
       hidden: 8                    # the net: hidden neurons (controller.network_hidden)
       recurrent: false             # an Elman net (controller.network_recurrent)
+      max_speed: 0.0               # m/s, the net's top wheel speed (controller.
+                                   # network_max_speed; 0: the Mona's top command)
+      clean_stops: false           # the net cleans only standing (controller.
+                                   # network_clean_stops); with max_speed, the fair match
       batch: 32                    # at most this many episodes stepped together per worker
       held_out: 100                # then: the best genome and BEECLUST on this many held-out
                                    # seeds (0: none; evolution.compare)
@@ -23,6 +27,8 @@ A design is a YAML file with one mapping, ``evolve``::
 
 Every key is checked when the design is loaded: an unknown key or a value out of range is
 refused with a message that names it (:class:`EvolutionError`, exit status 2).
+``generations`` may be raised (or lowered to the generations done) between runs of one
+folder: it is not part of what a resumed run must match (:meth:`Design.digest`).
 """
 
 from __future__ import annotations
@@ -55,12 +61,15 @@ KEYS: dict[str, tuple[type, float | None, float | None, Any]] = {
     'sigma': (float, 1e-6, 1e3, 0.5),
     'hidden': (int, 1, MAX_HIDDEN, 8),
     'recurrent': (bool, None, None, False),
+    'max_speed': (float, 0.0, 1.0, 0.0),
+    'clean_stops': (bool, None, None, False),
     'batch': (int, 1, 4096, 32),
     'held_out': (int, 0, 100_000, 0),
     'compare': (list, None, None, []),
 }
-#: The keys of the post-evaluation, which leave the evolution itself unchanged.
-AFTERWARDS = ('held_out', 'compare')
+#: The keys of the post-evaluation, which leave the evolution itself unchanged, and
+#: ``generations``, which only says where it stops (a run may be extended).
+AFTERWARDS = ('generations', 'held_out', 'compare')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,6 +88,8 @@ class Design:
     sigma: float
     hidden: int
     recurrent: bool
+    max_speed: float
+    clean_stops: bool
     batch: int
     held_out: int
     compare: tuple[str, ...]

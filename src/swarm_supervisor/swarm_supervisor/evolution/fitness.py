@@ -41,7 +41,8 @@ def genome_config(design: Design, weights: str | Path, seed: int) -> SwarmConfig
         episode={'population': design.robots, 'duration': design.duration, 'seed': seed},
         controller={'kind': 'network', 'network_hidden': design.hidden,
                     'network_recurrent': design.recurrent, 'network_weights': str(weights),
-                    'network_weights_sha256': ''})
+                    'network_weights_sha256': '', 'network_max_speed': design.max_speed,
+                    'network_clean_stops': design.clean_stops})
 
 
 def episode_fitness(metrics: Sequence[dict[str, float]]) -> float:

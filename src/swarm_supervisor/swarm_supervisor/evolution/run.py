@@ -125,8 +125,13 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, shown: bool | None = Non
         strategy = new_strategy(design)
         state = {'digest': design.digest(), 'strategy': strategy, 'generation': 0,
                  'random': np.random.get_state(), 'rows': [], 'best': None}
-        (out / 'design.yaml').write_text(yaml.safe_dump({'evolve': design.to_dict()},
-                                                        sort_keys=False))
+    elif state['generation'] > design.generations:
+        raise EvolutionError(f'{out} holds {state["generation"]} generations, more than '
+                             f'evolve.generations = {design.generations}; raise it to '
+                             'resume, or set it to the generations done')
+    # Rewritten each run: a resumed run may have raised (or cut) evolve.generations.
+    (out / 'design.yaml').write_text(yaml.safe_dump({'evolve': design.to_dict()},
+                                                    sort_keys=False))
     strategy, rows = state['strategy'], state['rows']
     pool = None
     if jobs > 1:
