@@ -124,3 +124,60 @@ def test_an_evolution_extended_by_raising_generations_equals_one_run_of_them(tmp
     refused = subprocess.run(command(fewer, parts), capture_output=True, text=True)
     assert refused.returncode == 2, refused.stderr
     assert 'more than evolve.generations = 1' in refused.stderr
+
+
+@pytest.fixture(scope='module')
+def dask_scheduler():
+    """A real dask.distributed cluster on loopback: a scheduler and two one-thread worker
+    processes (they import this project as a remote worker would)."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host='127.0.0.1',
+                      scheduler_port=0, dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
+@pytest.mark.slow
+def test_an_evolution_on_a_dask_scheduler_equals_one_in_this_process(tmp_path,
+                                                                     dask_scheduler):
+    design = write_design(tmp_path / 'tiny.yaml', held_out=3, max_speed=0.08,
+                          clean_stops=True)
+    local, cluster = tmp_path / 'local', tmp_path / 'cluster'
+    subprocess.run([*command(design, local), '--jobs', '1'], check=True, capture_output=True)
+    ran = subprocess.run([*command(design, cluster), '--scheduler', dask_scheduler],
+                         capture_output=True, text=True, timeout=600)
+    assert ran.returncode == 0, ran.stderr
+    assert without_wall_time(cluster) == without_wall_time(local)
+    assert len(without_wall_time(local)) == TINY['generations']
+    assert (cluster / 'best.npz').read_bytes() == (local / 'best.npz').read_bytes()
+    assert (cluster / 'compare.csv').read_bytes() == (local / 'compare.csv').read_bytes()
+
+
+def test_a_batch_carries_its_weights_so_a_worker_needs_no_shared_files(tmp_path):
+    from swarm_supervisor.evolution.cluster import portable, run_portable
+    from swarm_supervisor.evolution.fitness import generation_configs, run_configs
+
+    design = load_design(write_design(tmp_path / 'tiny.yaml', episodes=2, duration=10.0))
+    genomes = np.random.default_rng(1).normal(size=(2, design.genome_size))
+    configs = generation_configs(design, genomes, 0, tmp_path / 'genomes')
+    here = run_configs(configs)
+    task = portable(configs)
+    assert len(task[1]) == 2  # one file per genome, not per episode
+    for path in (tmp_path / 'genomes').iterdir():
+        path.unlink()  # the worker's filesystem holds none of them
+    assert run_portable(run_configs, task) == here
+    assert len(set(here)) == 4  # two genomes on two seeds
+
+
+def test_an_unreachable_scheduler_or_jobs_with_it_exits_2_writing_nothing(tmp_path):
+    design = write_design(tmp_path / 'tiny.yaml')
+    out = tmp_path / 'out'
+    nobody = subprocess.run([*command(design, out), '--scheduler', 'tcp://127.0.0.1:9',
+                             '--scheduler-timeout', '1'], capture_output=True, text=True,
+                            timeout=120)
+    assert nobody.returncode == 2, nobody.stderr
+    assert 'cannot reach the Dask scheduler at tcp://127.0.0.1:9' in nobody.stderr
+    both = subprocess.run([*command(design, out), '--scheduler', 'tcp://127.0.0.1:9',
+                           '--jobs', '2'], capture_output=True, text=True, timeout=120)
+    assert both.returncode == 2 and 'exclude each other' in both.stderr
+    assert not out.exists()
