@@ -169,16 +169,61 @@ def test_bad_weights_are_refused_naming_the_key(tmp_path):
     assert genome_size(K, 4, True) == sum(np.prod(s) for s in shapes(15, 4, True).values())
 
 
-def test_the_shipped_evolved_controller_fits_the_design_that_made_it(monkeypatch):
+def test_a_relative_weights_path_is_relative_to_the_parameter_file(tmp_path, monkeypatch):
+    from swarm_supervisor.config import file_relative_overrides, load_config, write_ros_yaml
+    from swarm_supervisor.system.preflight import run_overrides
+
+    folder = tmp_path / 'configs'
+    (folder / 'nets').mkdir(parents=True)
+    path = weights_file(folder / 'nets')
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    params = folder / 'net.yaml'
+    params.write_text('/**:\n  ros__parameters:\n    controller: {kind: network, '
+                      'network_hidden: 4, network_weights: nets/w.npz}\n')
+    elsewhere = tmp_path / 'elsewhere'
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # nothing named nets/w.npz here
+    config = load_config(params)
+    assert config.controller.network_weights == str(path)
+    assert config.controller.network_weights_sha256 == digest
+    # An absolute path still works, and a written file (absolute paths) reads back equal.
+    write_ros_yaml(config, elsewhere / 'absolute.yaml')
+    assert load_config(elsewhere / 'absolute.yaml') == config
+    # The node system hands every node the resolved path (a node's --params-file cannot
+    # tell it which file a value came from); the user's -p comes after it and wins.
+    assert file_relative_overrides(params) == [f'controller.network_weights:={path}']
+    assert file_relative_overrides(elsewhere / 'absolute.yaml') == []
+    from swarm_supervisor.cli import launch as launch_cli
+
+    options = launch_cli.build_parser().parse_args(['--config', str(params), '-p', 'x:=1'])
+    assert run_overrides(options) == [f'controller.network_weights:={path}', 'x:=1']
+    # Relative to the file, not the current directory: a file beside the cwd is not taken.
+    monkeypatch.chdir(folder / 'nets')
+    (folder / 'nets' / 'nets').mkdir()
+    weights_file(folder / 'nets' / 'nets', seed=9)
+    assert load_config(params).controller.network_weights_sha256 == digest
+    missing = folder / 'missing.yaml'
+    missing.write_text(params.read_text().replace('nets/w.npz', 'none/w.npz'))
+    with pytest.raises(ParameterError, match=r"network_weights = '.*/configs/none/w.npz': "
+                                             r'cannot read'):
+        load_config(missing)
+
+
+@pytest.mark.parametrize('name', ['evolved'])
+def test_the_shipped_evolved_controller_fits_the_design_that_made_it(tmp_path, monkeypatch,
+                                                                     name):
     from pathlib import Path
 
     from swarm_supervisor.config import load_config
     from swarm_supervisor.evolution import load_design
 
     root = Path(__file__).resolve().parents[2]
-    monkeypatch.chdir(root)  # its weights path is relative to the repository root
-    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / 'evolved.yaml')
-    design = load_design(root / 'ros_ws' / 'config' / 'designs' / 'evolve.yaml')
+    monkeypatch.chdir(tmp_path)  # its weights path is relative to the parameter file
+    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / f'{name}.yaml')
+    design = load_design(root / 'ros_ws' / 'config' / 'designs' /
+                         f'{name.replace("evolved", "evolve")}.yaml')
+    assert config.controller.network_max_speed == design.max_speed
+    assert config.controller.network_clean_stops == design.clean_stops
     assert config.controller.kind == 'network'
     assert config.controller.network_hidden == design.hidden
     assert config.controller.network_recurrent == design.recurrent

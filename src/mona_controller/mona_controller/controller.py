@@ -78,8 +78,9 @@ class ControllerParams:
     network_weights: str = param('', doc="the 'network' kind's weights, an .npz "
                                          '(mona_controller.network: w1, b1, w2, b2 and wr '
                                          'if recurrent); absolute, or relative to the '
-                                         "current directory; '' draws them from "
-                                         'network_seed')
+                                         'parameter file naming it (to the current '
+                                         "directory if given otherwise, e.g. -p); '' draws "
+                                         'them from network_seed')
     network_seed: int = param(0, low=0, high=2**32 - 1,
                               doc="the seed of the 'network' kind's weights when "
                                   'network_weights is empty (N(0, 1) each)')
