@@ -102,6 +102,7 @@ def test_the_post_evaluation_pairs_the_best_genome_with_beeclust_on_held_out_see
     evolve(design, tmp_path / 'out', shown=False)
     summary = json.loads((tmp_path / 'out' / 'compare.json').read_text())
     assert list(summary) == ['default'] and summary['default']['episodes'] == 6
+    assert set(summary['default']['behaviour']) == {'beeclust', 'network'}
     rows = read_csv(tmp_path / 'out' / 'compare.csv')
     assert [int(row['seed']) for row in rows] == seeds
     assert (tmp_path / 'out' / 'compare.png').stat().st_size > 0
@@ -181,3 +182,25 @@ def test_an_unreachable_scheduler_or_jobs_with_it_exits_2_writing_nothing(tmp_pa
                            '--jobs', '2'], capture_output=True, text=True, timeout=120)
     assert both.returncode == 2 and 'exclude each other' in both.stderr
     assert not out.exists()
+
+
+def test_the_behaviour_measures_tell_a_fast_cleaner_from_a_fair_one_and_beeclust():
+    from pathlib import Path
+
+    from swarm_supervisor.config import load_config
+    from swarm_supervisor.evolution.behaviour import behaviour
+
+    root = Path(__file__).resolve().parents[2]
+    net = load_config(root / 'ros_ws' / 'config' / 'controllers' / 'evolved.yaml').replace(
+        episode={'population': 30, 'duration': 60.0, 'seed': 11})
+    free = behaviour(net)  # the shipped evolved controller: cleans while driving fast
+    assert free['cleaner_on'] > 0.9 and free['forward_speed'] > 0.08
+    assert free['standing'] == 0.0
+    fair = behaviour(net.replace(controller={'network_max_speed': 0.08,
+                                             'network_clean_stops': True}))
+    assert fair['standing'] >= fair['cleaner_on'] > 0.9  # a cleaning robot stands
+    assert fair['forward_speed'] < 0.01
+    beeclust = behaviour(net.replace(controller={'kind': 'beeclust'}))
+    assert 0.0 < beeclust['cleaner_on'] < 0.9 and beeclust['forward_speed'] <= 0.08
+    assert beeclust['cleaning_beside_robot'] > 0.5  # it waits after meeting a robot
+    assert beeclust['moving_speed'] > beeclust['forward_speed']
