@@ -72,6 +72,8 @@ def test_an_interrupted_and_resumed_evolution_equals_an_uninterrupted_one(tmp_pa
     ({'config': 'missing.yaml'}, r'evolve.config: cannot read'),
     ({'max_speed': 2.0}, r'evolve.max_speed = 2.0 is out of range'),
     ({'clean_stops': 'yes'}, r"evolve.clean_stops = 'yes': expected true or false"),
+    ({'strategy': 'nes'}, r"evolve.strategy = 'nes': one of cma_es, openai_es"),
+    ({'strategy': 'openai_es', 'genomes': 5}, r'evolve.genomes = 5: openai_es needs an even'),
 ])
 def test_a_bad_design_is_refused_with_exit_2_naming_the_key(tmp_path, changes, message):
     design = write_design(tmp_path / 'bad.yaml', **changes)
@@ -204,3 +206,47 @@ def test_the_behaviour_measures_tell_a_fast_cleaner_from_a_fair_one_and_beeclust
     assert 0.0 < beeclust['cleaner_on'] < 0.9 and beeclust['forward_speed'] <= 0.08
     assert beeclust['cleaning_beside_robot'] > 0.5  # it waits after meeting a robot
     assert beeclust['moving_speed'] > beeclust['forward_speed']
+
+
+def test_openai_es_descends_a_quadratic_with_the_same_bits_for_the_same_seed():
+    from swarm_supervisor.evolution.strategies import OpenAIES, centred_ranks
+
+    assert centred_ranks([3.0, 1.0, 2.0]).tolist() == [0.5, -0.5, 0.0]
+    target = np.linspace(-1.0, 1.0, 10)
+
+    def run(seed):
+        strategy = OpenAIES(10, 0.1, 8, seed, learning_rate=0.05)
+        for _ in range(150):
+            genomes = strategy.ask()
+            strategy.tell(genomes, [float(np.sum((g - target) ** 2)) for g in genomes])
+        return strategy.mean
+
+    mean = run(1)
+    assert np.sum((mean - target) ** 2) < 0.05 * np.sum(target ** 2)  # from 100 % at zero
+    assert run(1).tobytes() == mean.tobytes()
+    assert run(2).tobytes() != mean.tobytes()
+    with pytest.raises(ValueError, match='the genomes of the last ask'):
+        OpenAIES(10, 0.1, 8, 1, 0.05).tell([np.zeros(10)] * 8, [0.0] * 8)
+
+
+def test_an_interrupted_openai_es_evolution_resumes_to_the_same_run(tmp_path):
+    from swarm_supervisor.evolution import evolve
+
+    design = load_design(write_design(tmp_path / 'tiny.yaml', strategy='openai_es',
+                                      learning_rate=0.05, duration=30.0))
+    whole = evolve(design, tmp_path / 'whole', shown=False)
+
+    def stop_after_the_first(generation):
+        if generation == 0:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        evolve(design, tmp_path / 'parts', shown=False, on_checkpoint=stop_after_the_first)
+    assert len(read_csv(tmp_path / 'parts' / 'generations.csv')) == 1
+    resumed = evolve(design, tmp_path / 'parts', shown=False)
+    drop = [{k: v for k, v in row.items() if k != 'wall_s'} for row in whole]
+    assert [{k: v for k, v in row.items() if k != 'wall_s'} for row in resumed] == drop
+    assert (tmp_path / 'parts' / 'best.npz').read_bytes() == \
+        (tmp_path / 'whole' / 'best.npz').read_bytes()
+    assert len({row['mean'] for row in whole}) == TINY['generations']  # the mean moves
+    assert {row['sigma'] for row in whole} == {design.sigma}  # openai_es keeps sigma

@@ -1,8 +1,9 @@
-"""The evolution loop: CMA-ES (pycma) over the net's weights, resumable per generation.
+"""The evolution loop: an optimiser over the net's weights (CMA-ES or OpenAI-ES,
+:mod:`swarm_supervisor.evolution.strategies`), resumable per generation.
 
-Each generation CMA-ES proposes ``genomes`` weight vectors, every one is scored on the
-generation's training seeds (:mod:`swarm_supervisor.evolution.fitness`) and CMA-ES is told
-the scores. pycma draws its samples from numpy's global generator, seeded through its own
+Each generation the optimiser proposes ``genomes`` weight vectors, every one is scored on the
+generation's training seeds (:mod:`swarm_supervisor.evolution.fitness`) and the optimiser is
+told the scores. pycma draws its samples from numpy's global generator, seeded through its own
 ``seed`` option; the loop keeps that generator's state apart (restored before each ``ask``),
 so nothing else in the process moves it. After each generation ``checkpoint.pkl`` is
 replaced atomically (``os.replace``): the pickled optimiser, the generator's state, the
@@ -35,6 +36,7 @@ import yaml
 from tqdm import tqdm
 
 from mona_controller.network import save_weights, weights_from_genome
+from swarm_supervisor.evolution import strategies
 from swarm_supervisor.evolution.cluster import ClusterPool
 from swarm_supervisor.evolution.design import Design, EvolutionError
 from swarm_supervisor.evolution.fitness import evaluate
@@ -46,12 +48,9 @@ CHECKPOINT = 'checkpoint.pkl'
 
 
 def new_strategy(design: Design) -> Any:
-    """A seeded CMA-ES with file logging and printing off, its mean at zero weights."""
-    import cma
-
-    options = {'seed': design.seed, 'popsize': design.genomes, 'verb_log': 0,
-               'verbose': -9, 'verb_disp': 0}
-    return cma.CMAEvolutionStrategy(np.zeros(design.genome_size), design.sigma, options)
+    """The design's seeded optimiser (:mod:`.strategies`), its mean at zero weights."""
+    return strategies.new_strategy(design.strategy, design.genome_size, design.sigma,
+                                   design.genomes, design.seed, design.learning_rate)
 
 
 def write_atomically(path: Path, data: bytes) -> None:
