@@ -2,7 +2,8 @@
 ``controller.kind: network`` runs one controller process per Mona, each loading the same
 weights file, and the lockstep episode equals the embedded runner's bit for bit (N = 5,
 60 s), as for BEECLUST (tests/system/test_system.py); also with the fair match's limits
-(controller.network_max_speed, network_clean_stops)."""
+(controller.network_max_speed, network_clean_stops) and the weights named relative to the
+parameter file (the launcher hands the nodes the resolved path)."""
 
 from __future__ import annotations
 
@@ -34,6 +35,10 @@ def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path, fair):
                     'network_max_speed': 0.08 if fair else 0.0, 'network_clean_stops': fair})
     path = tmp_path / 'network.yaml'
     write_ros_yaml(config, path)
+    if fair:  # also: the weights named relative to the parameter file, not to the cwd
+        path.write_text(path.read_text().replace(str(weights), weights.name))
+        assert f'network_weights: {weights.name}' in path.read_text()
+        assert load_config(path) == config
     run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--population', str(POPULATION),
                                       '--duration', str(DURATION), '--seed', str(SEED),
                                       '--mode', 'lockstep'])
