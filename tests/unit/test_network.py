@@ -209,7 +209,7 @@ def test_a_relative_weights_path_is_relative_to_the_parameter_file(tmp_path, mon
         load_config(missing)
 
 
-@pytest.mark.parametrize('name', ['evolved'])
+@pytest.mark.parametrize('name', ['evolved', 'evolved_fair'])
 def test_the_shipped_evolved_controller_fits_the_design_that_made_it(tmp_path, monkeypatch,
                                                                      name):
     from pathlib import Path
