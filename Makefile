@@ -10,7 +10,7 @@ PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supe
 STUDY_OUT ?= results/study
 
 .PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware \
-	browser-tools
+	browser-tools conformance
 
 venv: $(VENV)/.installed
 
@@ -107,6 +107,12 @@ browser-tools:
 firmware: firmware-tools
 	$(MAKE) -C firmware/mona
 	$(MAKE) -C firmware/sim
+
+# docs/interfaces.md as tests against a world-side implementation (make test runs it on the
+# world node): WORLD is a name of tests/conformance/implementations.py or a command line
+WORLD ?= world
+conformance: venv
+	$(PY) -m pytest tests/conformance -q --world-cmd '$(WORLD)'
 
 bench: venv
 	$(PY) bench/bench_embedded.py

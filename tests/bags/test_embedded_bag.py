@@ -3,7 +3,8 @@ metrics node records of a lockstep run of scripts/swarm.sh with the same seed.
 
 Same topics, types, offered QoS and custom_data; identical poses, the controllers' states,
 cleaning events, cue maps, sources and metrics, decoded once with rosbags and once with an
-independent decoder (mcap + mcap-ros2-support).
+independent decoder (mcap + mcap-ros2-support); also with moving leaks and with a command
+latency (``mona.command_latency``).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from swarm_metrics.bag_reader import read_custom_data, read_episode_bag
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics_node import MetricsNodeParams
 from swarm_supervisor.config import load_config, write_ros_yaml
+from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.outputs.bag import TOPICS, BagOptions, record_episode
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
@@ -212,3 +214,42 @@ def test_a_moving_leaking_field_records_the_same_bag_in_both_runners(leak_bags, 
     header = (tmp_path / 'analysed' / 'metrics.csv').read_text().splitlines()[0]
     assert header.endswith('mean_cue_fraction_east,ratio_near_east,'  # in name order
                            'mean_cue_fraction_west,ratio_near_west')
+
+
+#: A radio link's timing (docs/model.md, "The real link"): commands reach the wheels 3 control
+#: steps of 2 world steps late, the real Monas' IR range.
+LATENCY = {'mona': {'command_latency': 3, 'ir_range': 0.02}, 'world': {'control_steps': 2}}
+
+
+@pytest.fixture(scope='module')
+def latency_bags(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(lockstep bag, embedded bag) of one episode with a command latency."""
+    config = load_config(CONFIG).replace(
+        **LATENCY, episode={'population': POPULATION, 'duration': 12.0, 'seed': 2})
+    folder = tmp_path_factory.mktemp('latency')
+    write_ros_yaml(config, folder / 'latency.yaml')
+    run = SwarmRun(folder / 'run', ['--config', str(folder / 'latency.yaml'), '--mode',
+                                    'lockstep'])
+    try:
+        status = run.wait()
+    finally:
+        run.stop()
+    assert status == 0, run.stderr
+    _, closed = record_episode(config, tmp_path_factory.mktemp('latency_embedded'))
+    return run.out / 'episode_0' / 'bag', closed.path
+
+
+def test_a_command_latency_records_the_same_bag_in_both_runners(latency_bags):
+    node, embedded = (mcap_messages(bag) for bag in latency_bags)
+    for topic in COMPARED:
+        assert [(t, plain(topic, m)) for t, m in embedded[topic]] == \
+            [(t, plain(topic, m)) for t, m in node[topic]], topic
+    assert len(node['/world/cleaning']) > 0
+    parameters = json.loads(node['/episode'][0][1].data)['parameters']
+    assert parameters['mona']['command_latency'] == 3
+    # The latency took effect: without it the same episode moves otherwise.
+    config = load_config(CONFIG).replace(
+        mona={'ir_range': 0.02}, world={'control_steps': 2},
+        episode={'population': POPULATION, 'duration': 12.0, 'seed': 2})
+    delayed = run_episode(config.replace(mona={'command_latency': 3}))
+    assert not np.array_equal(run_episode(config).final_poses, delayed.final_poses)

@@ -77,6 +77,8 @@ MODELS = {
                         'mona.ir_miss': 0.1},
     # Turns in place at the robot's own speed.
     'turn-at-speed': {'controller.turn_at': 'speed', 'controller.wait_max': 5.0},
+    # A radio link's delay: each command reaches the wheels 3 control steps (of 2) later.
+    'command-latency': {'mona.command_latency': 3, 'world.control_steps': 2},
 }
 
 

@@ -1,7 +1,9 @@
 """The node system with the network controller: scripts/swarm.sh --config with
 ``controller.kind: network`` runs one controller process per Mona, each loading the same
 weights file, and the lockstep episode equals the embedded runner's bit for bit (N = 5,
-60 s), as for BEECLUST (tests/system/test_system.py)."""
+60 s), as for BEECLUST (tests/system/test_system.py); also with the fair match's limits
+(controller.network_max_speed, network_clean_stops) and the weights named relative to the
+parameter file (the launcher hands the nodes the resolved path)."""
 
 from __future__ import annotations
 
@@ -19,7 +21,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 POPULATION, DURATION, SEED, HIDDEN = 5, 60.0, 7, 6
 
 
-def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path):
+@pytest.mark.parametrize('fair', [False, True])
+def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path, fair):
     ir_count = load_config(CONFIG).mona.ir_count
     genome = np.random.default_rng(5).normal(0.0, 0.8, genome_size(ir_count, HIDDEN, True))
     weights = tmp_path / 'net.npz'
@@ -27,9 +30,15 @@ def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path):
     config = load_config(CONFIG).replace(
         episode={'population': POPULATION, 'duration': DURATION, 'seed': SEED},
         controller={'kind': 'network', 'network_hidden': HIDDEN, 'network_recurrent': True,
-                    'network_weights': str(weights)})
+                    'network_weights': str(weights),
+                    # fair: wheels capped at 8 cm/s, no wheels while cleaning
+                    'network_max_speed': 0.08 if fair else 0.0, 'network_clean_stops': fair})
     path = tmp_path / 'network.yaml'
     write_ros_yaml(config, path)
+    if fair:  # also: the weights named relative to the parameter file, not to the cwd
+        path.write_text(path.read_text().replace(str(weights), weights.name))
+        assert f'network_weights: {weights.name}' in path.read_text()
+        assert load_config(path) == config
     run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--population', str(POPULATION),
                                       '--duration', str(DURATION), '--seed', str(SEED),
                                       '--mode', 'lockstep'])

@@ -19,6 +19,7 @@ from mona_controller.network import (
     reference_forward,
     save_weights,
     shapes,
+    top_command,
     weights_from_genome,
 )
 from mona_controller.reference import random_readings
@@ -27,45 +28,63 @@ from mona_controller.schema import ParameterError
 K = MonaParams().ir_count
 
 
-def weights_file(tmp_path, hidden=4, recurrent=False, seed=0, name='w.npz', scale=1.0):
+def weights_file(tmp_path, hidden=4, recurrent=False, seed=0, name='w.npz', scale=1.0,
+                 clean_bias=None):
     rng = np.random.default_rng(seed)
     size = genome_size(K, hidden, recurrent)
     weights = weights_from_genome(rng.normal(0.0, scale, size), K, hidden, recurrent)
+    if clean_bias is not None:  # the cleaner output's bias: on some steps, off on others
+        weights['b2'][2] = clean_bias
     path = tmp_path / name
     save_weights(path, weights)
     return path
 
 
+@pytest.mark.parametrize('fair', [False, True])
 @pytest.mark.parametrize('recurrent', [False, True])
 @pytest.mark.parametrize('seed', [1, 2])
-def test_the_kernel_equals_the_plain_python_reference_bit_for_bit(tmp_path, recurrent, seed):
+def test_the_kernel_equals_the_plain_python_reference_bit_for_bit(tmp_path, recurrent, seed,
+                                                                  fair):
     hidden = 3 + 2 * seed
+    # fair: wheels capped at 8 cm/s and no wheels while cleaning (the fair comparison).
     params = ControllerParams(kind='network', network_hidden=hidden,
                               network_recurrent=recurrent,
                               network_weights=str(weights_file(tmp_path, hidden, recurrent,
-                                                               seed, scale=0.7)))
+                                                               seed, scale=0.7,
+                                                               clean_bias=0.0)),
+                              network_max_speed=0.08 if fair else 0.0,
+                              network_clean_stops=fair)
     mona = MonaParams(max_wheel_command=7.0, ir_range=0.05)
+    top = top_command(params, mona)
+    assert top == (0.08 / mona.wheel_unit_speed if fair else 7.0)
     n = 9
     controller = make_controller(params, mona, range(n))
     arrays = net_weights(params, mona)
     previous = [[0.0] * 3 for _ in range(n)]
     context = [[0.0] * MAX_HIDDEN for _ in range(n)]
     rng = np.random.default_rng(seed)
-    cleaned = set()
+    cleaned, cleans, stood = set(), 0, 0
     for step in range(200):
         ground, ranges, is_robot = random_readings(rng, n, K)
         command = controller.step(ground, ranges, is_robot, step * 0.25)
         for i in range(n):
             left, right, clean = reference_forward(
                 ground[i].tolist(), ranges[i].tolist(), is_robot[i].tolist(), arrays,
-                mona.ir_range, mona.max_wheel_command, previous[i], context[i])
+                mona.ir_range, top, previous[i], context[i], stops=fair)
             assert command.wheels[i].tobytes() == np.array([left, right]).tobytes(), (step, i)
             assert bool(command.cleaner[i]) == clean
+            assert np.all(np.abs(command.wheels[i]) <= top)
+            cleans += clean
+            if clean and fair:
+                assert command.wheels[i].tolist() == [0.0, 0.0]
+                stood += 1
             assert controller.previous[i].tobytes() == np.array(previous[i]).tobytes()
             assert controller.context[i].tobytes() == np.array(context[i]).tobytes()
             cleaned.add(command.wheels[i].tobytes())
         assert controller.state.tolist() == [2 if c else 0 for c in command.cleaner]
     assert len(cleaned) > 100  # the commands vary with the readings
+    assert 0 < cleans < 200 * n  # both branches ran
+    assert stood == (cleans if fair else 0)
 
 
 @pytest.mark.parametrize('recurrent', [False, True])
@@ -73,12 +92,15 @@ def test_a_robot_alone_and_in_batches_of_1_5_and_64_gives_the_same_commands(tmp_
                                                                           recurrent):
     # Parts with different nets (files and seeds), widths and Monas, as a batch of episodes.
     paths = [weights_file(tmp_path, 2 + k % 5, recurrent, k, f'w{k}.npz') for k in range(4)]
+    # Some parts capped and stopping to clean (the fair kind), some not.
     def params_of(k):
+        fair = {'network_max_speed': 0.05 * (k % 2), 'network_clean_stops': k % 3 == 0}
         if k % 5 == 4:
             return ControllerParams(kind='network', network_seed=k, network_hidden=6,
-                                    network_recurrent=recurrent)
+                                    network_recurrent=recurrent, **fair)
         return ControllerParams(kind='network', network_hidden=2 + k % 5,
-                                network_recurrent=recurrent, network_weights=str(paths[k % 5]))
+                                network_recurrent=recurrent, network_weights=str(paths[k % 5]),
+                                **fair)
     monas = [MonaParams(), MonaParams(max_wheel_command=6.0, ir_range=0.04)]
     sizes = [1, 5, 64]
     total = sum(sizes)
@@ -147,16 +169,61 @@ def test_bad_weights_are_refused_naming_the_key(tmp_path):
     assert genome_size(K, 4, True) == sum(np.prod(s) for s in shapes(15, 4, True).values())
 
 
-def test_the_shipped_evolved_controller_fits_the_design_that_made_it(monkeypatch):
+def test_a_relative_weights_path_is_relative_to_the_parameter_file(tmp_path, monkeypatch):
+    from swarm_supervisor.config import file_relative_overrides, load_config, write_ros_yaml
+    from swarm_supervisor.system.preflight import run_overrides
+
+    folder = tmp_path / 'configs'
+    (folder / 'nets').mkdir(parents=True)
+    path = weights_file(folder / 'nets')
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    params = folder / 'net.yaml'
+    params.write_text('/**:\n  ros__parameters:\n    controller: {kind: network, '
+                      'network_hidden: 4, network_weights: nets/w.npz}\n')
+    elsewhere = tmp_path / 'elsewhere'
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # nothing named nets/w.npz here
+    config = load_config(params)
+    assert config.controller.network_weights == str(path)
+    assert config.controller.network_weights_sha256 == digest
+    # An absolute path still works, and a written file (absolute paths) reads back equal.
+    write_ros_yaml(config, elsewhere / 'absolute.yaml')
+    assert load_config(elsewhere / 'absolute.yaml') == config
+    # The node system hands every node the resolved path (a node's --params-file cannot
+    # tell it which file a value came from); the user's -p comes after it and wins.
+    assert file_relative_overrides(params) == [f'controller.network_weights:={path}']
+    assert file_relative_overrides(elsewhere / 'absolute.yaml') == []
+    from swarm_supervisor.cli import launch as launch_cli
+
+    options = launch_cli.build_parser().parse_args(['--config', str(params), '-p', 'x:=1'])
+    assert run_overrides(options) == [f'controller.network_weights:={path}', 'x:=1']
+    # Relative to the file, not the current directory: a file beside the cwd is not taken.
+    monkeypatch.chdir(folder / 'nets')
+    (folder / 'nets' / 'nets').mkdir()
+    weights_file(folder / 'nets' / 'nets', seed=9)
+    assert load_config(params).controller.network_weights_sha256 == digest
+    missing = folder / 'missing.yaml'
+    missing.write_text(params.read_text().replace('nets/w.npz', 'none/w.npz'))
+    with pytest.raises(ParameterError, match=r"network_weights = '.*/configs/none/w.npz': "
+                                             r'cannot read'):
+        load_config(missing)
+
+
+@pytest.mark.parametrize('name', ['evolved', 'evolved_fair'])
+def test_the_shipped_evolved_controller_fits_the_design_that_made_it(tmp_path, monkeypatch,
+                                                                     name):
     from pathlib import Path
 
     from swarm_supervisor.config import load_config
     from swarm_supervisor.evolution import load_design
 
     root = Path(__file__).resolve().parents[2]
-    monkeypatch.chdir(root)  # its weights path is relative to the repository root
-    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / 'evolved.yaml')
-    design = load_design(root / 'ros_ws' / 'config' / 'designs' / 'evolve.yaml')
+    monkeypatch.chdir(tmp_path)  # its weights path is relative to the parameter file
+    config = load_config(root / 'ros_ws' / 'config' / 'controllers' / f'{name}.yaml')
+    design = load_design(root / 'ros_ws' / 'config' / 'designs' /
+                         f'{name.replace("evolved", "evolve")}.yaml')
+    assert config.controller.network_max_speed == design.max_speed
+    assert config.controller.network_clean_stops == design.clean_stops
     assert config.controller.kind == 'network'
     assert config.controller.network_hidden == design.hidden
     assert config.controller.network_recurrent == design.recurrent

@@ -14,7 +14,7 @@ def _record(config):
 
 def test_every_shipped_profile_loads_and_idealised_is_the_default():
     names = sorted(path.stem for path in profile.PROFILES_DIR.glob('*.yaml'))
-    assert names == ['idealised', 'webots']
+    assert names == ['idealised', 'real_link', 'webots']
     assert load_config(profile.PROFILES_DIR / 'idealised.yaml') == load_config()
     # Each profile sets only the sensing and encounter chain.
     webots = load_config(profile.PROFILES_DIR / 'webots.yaml')
@@ -22,6 +22,16 @@ def test_every_shipped_profile_loads_and_idealised_is_the_default():
                if value != profile.chain_of({})[key]]
     assert 'mona.ground_transfer' in changed and 'world.cleaning' in changed
     assert webots.study == load_config().study and webots.episode == load_config().episode
+    real = load_config(profile.PROFILES_DIR / 'real_link.yaml')
+    assert (real.mona.ir_range, real.mona.command_latency) == (0.02, 3)
+    assert real.replace(mona={'ir_range': 0.03, 'command_latency': 0}) == load_config()
+
+
+def test_the_real_link_profile_is_named_by_its_latency_too():
+    real = load_config(profile.PROFILES_DIR / 'real_link.yaml')
+    assert '`real_link` profile' in profile.describe([_record(real)])
+    line = profile.describe([_record(real.replace(mona={'command_latency': 0}))])
+    assert 'a profile of its own' in line and '`mona.ir_range` = 0.02' in line
 
 
 def test_describe_names_the_profile_and_what_departs_from_the_default():

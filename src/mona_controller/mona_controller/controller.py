@@ -78,14 +78,24 @@ class ControllerParams:
     network_weights: str = param('', doc="the 'network' kind's weights, an .npz "
                                          '(mona_controller.network: w1, b1, w2, b2 and wr '
                                          'if recurrent); absolute, or relative to the '
-                                         "current directory; '' draws them from "
-                                         'network_seed')
+                                         'parameter file naming it (to the current '
+                                         "directory if given otherwise, e.g. -p); '' draws "
+                                         'them from network_seed')
     network_seed: int = param(0, low=0, high=2**32 - 1,
                               doc="the seed of the 'network' kind's weights when "
                                   'network_weights is empty (N(0, 1) each)')
     network_weights_sha256: str = param('', doc='the SHA-256 of network_weights, worked '
                                                 "out on loading (a value given must match "
                                                 "the file's)")
+    network_max_speed: float = param(0.0, unit='m/s', low=0.0, high=1.0,
+                                     doc="the 'network' kind's top wheel speed, forward or "
+                                         'back (its wheel outputs are scaled to it, within '
+                                         "mona.max_wheel_command); 0: the Mona's top command")
+    network_clean_stops: bool = param(False,
+                                      doc="the 'network' kind cleans only standing: where "
+                                          'its cleaner output is on, both wheels are '
+                                          "commanded 0 (as BEECLUST's robots clean only "
+                                          'while they wait)')
 
     def __post_init__(self) -> None:
         validate(self, 'controller.')

@@ -101,6 +101,13 @@ class MonaParams:
     wall_margin: float = param(0.05, unit='m', low=0.0, high=1.0,
                                doc="'position': how close to a wall or an obstacle (from the "
                                    'centre) a robot takes what it sees for a wall')
+    command_latency: int = param(0, unit='control steps', low=0, high=1000,
+                                 doc="how many control steps a controller's command takes to "
+                                     'reach the wheels and the cleaner (a radio link: its '
+                                     'latency / the control period); the answer to the '
+                                     'readings of control step c drives control step c + '
+                                     'this, and before the first the robot stands still, '
+                                     'its cleaner off (0: at once)')
 
     def __post_init__(self) -> None:
         validate(self, 'mona.')

@@ -5,8 +5,10 @@ sensors scaled to [0, 1], each IR beam's proximity ``1 - min(range / ir_range, 1
 nothing is seen), each beam's robot flag (1 where the obstacle seen is a robot) and its own
 three previous outputs. One hidden layer of ``network_hidden`` softsign neurons (with
 ``network_recurrent``, also fed its own previous values: an Elman net) feeds three softsign
-outputs: the left and right wheels (times the Mona's top wheel command) and the cleaner (on
-where the output is > 0).
+outputs: the left and right wheels (times the top wheel command: the Mona's, or the one of
+``network_max_speed``, :func:`top_command`) and the cleaner (on where the output is > 0; with
+``network_clean_stops`` a cleaning robot's wheels are commanded 0, so it cleans only standing,
+as a waiting BEECLUST robot does).
 
 The forward pass is a numba kernel of explicit float64 loops in one fixed order (no BLAS,
 no fastmath) and softsign, ``x / (1 + |x|)``, is exact IEEE arithmetic: a robot computes the
@@ -206,6 +208,15 @@ def net_weights(params: ControllerParams, mona: MonaParams) -> dict[str, np.ndar
     return arrays
 
 
+def top_command(params: ControllerParams, mona: MonaParams) -> float:
+    """The wheel command a net's wheel output of 1 stands for: ``mona.max_wheel_command``,
+    or with ``network_max_speed`` > 0 that speed in wheel units (worked out as BEECLUST's
+    beta is, ``speed / wheel_unit_speed``), within the Mona's top command."""
+    if params.network_max_speed == 0.0:
+        return float(mona.max_wheel_command)
+    return min(params.network_max_speed / mona.wheel_unit_speed, mona.max_wheel_command)
+
+
 def flatten(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
     """The arrays in :data:`LAYERS` order, as one float64 vector (the kernel's layout)."""
     return np.concatenate([np.ravel(arrays[name]) for name in LAYERS if name in arrays])
@@ -218,13 +229,14 @@ def _softsign(x: float) -> float:
 
 @numba.njit(cache=True, nogil=True)
 def forward(ground, ranges, is_robot, weights, offset, hidden, recurrent, ir_range, top,
-            previous, context, wheels, cleaner):  # pragma: no cover (compiled)
+            stops, previous, context, wheels, cleaner):  # pragma: no cover (compiled)
     """One step of every robot's net (the kernel; :func:`reference_forward` in Python).
 
     Robot i reads its net at ``weights[offset[i]:]`` (:func:`flatten`'s layout), with
     ``hidden[i]`` neurons, recurrent or not; ``ir_range[i]`` scales its beams, ``top[i]``
-    its wheels. ``previous`` [N, 3] and ``context`` [N, MAX_HIDDEN] are its last outputs
-    and hidden values, updated in place; ``wheels`` [N, 2] and ``cleaner`` [N] are written.
+    its wheels; where ``stops[i]``, a cleaning robot's wheels are 0. ``previous`` [N, 3] and
+    ``context`` [N, MAX_HIDDEN] are its last outputs and hidden values, updated in place;
+    ``wheels`` [N, 2] and ``cleaner`` [N] are written.
     Every sum starts at the bias and adds its terms in index order.
     """
     n, k = ranges.shape
@@ -265,17 +277,22 @@ def forward(ground, ranges, is_robot, weights, offset, hidden, recurrent, ir_ran
             previous[i, o] = _softsign(acc)
         for j in range(m):
             context[i, j] = h[j]
-        wheels[i, 0] = previous[i, 0] * top[i]
-        wheels[i, 1] = previous[i, 1] * top[i]
         cleaner[i] = previous[i, 2] > 0.0
+        if stops[i] and cleaner[i]:
+            wheels[i, 0] = 0.0
+            wheels[i, 1] = 0.0
+        else:
+            wheels[i, 0] = previous[i, 0] * top[i]
+            wheels[i, 1] = previous[i, 1] * top[i]
 
 
 def reference_forward(ground: Sequence[int], ranges: Sequence[float],
                       is_robot: Sequence[bool], arrays: Mapping[str, np.ndarray],
                       ir_range: float, top: float, previous: list[float],
-                      context: list[float]) -> tuple[float, float, bool]:
+                      context: list[float], stops: bool = False) -> tuple[float, float, bool]:
     """One robot's step of its net in plain Python floats (what :func:`forward` computes):
-    its wheels and cleaner; ``previous`` and ``context`` (its hidden values) are updated."""
+    its wheels and cleaner (with ``stops``, no wheels while cleaning); ``previous`` and
+    ``context`` (its hidden values) are updated."""
     x = [ground[0] / 255.0, ground[1] / 255.0]
     seen = [float(r) < math.inf for r in ranges]
     x += [1.0 - min(float(r) / ir_range, 1.0) if s else 0.0 for r, s in zip(ranges, seen)]
@@ -298,7 +315,10 @@ def reference_forward(ground: Sequence[int], ranges: Sequence[float],
             acc += weight * value
         previous[o] = acc / (1.0 + abs(acc))
     context[:len(h)] = h
-    return previous[0] * top, previous[1] * top, previous[2] > 0.0
+    clean = previous[2] > 0.0
+    if stops and clean:
+        return 0.0, 0.0, True
+    return previous[0] * top, previous[1] * top, clean
 
 
 class NetworkController(Controller):
@@ -326,7 +346,7 @@ class NetworkController(Controller):
 
     def derive(self) -> None:
         """Every parameter set's net in one vector, and each robot's offset into it, width,
-        recurrence, IR range and top wheel command."""
+        recurrence, IR range, top wheel command (:func:`top_command`) and stopping."""
         nets = [flatten(net_weights(params, mona))
                 for params, mona in zip(self.params, self.mona)]
         starts = np.cumsum([0] + [len(net) for net in nets[:-1]])
@@ -336,7 +356,9 @@ class NetworkController(Controller):
         self._hidden = np.array([p.network_hidden for p in self.params], np.int64)[index]
         self._recurrent = np.array([p.network_recurrent for p in self.params], bool)[index]
         self._ir_range = np.array([m.ir_range for m in self.mona], np.float64)[index]
-        self._top = np.array([m.max_wheel_command for m in self.mona], np.float64)[index]
+        self._top = np.array([top_command(p, m) for p, m in zip(self.params, self.mona)],
+                             np.float64)[index]
+        self._stops = np.array([p.network_clean_stops for p in self.params], bool)[index]
 
     def reset(self, seed: int) -> None:
         """Start a new episode: zero outputs and hidden values (a net draws no random
@@ -354,8 +376,8 @@ class NetworkController(Controller):
         cleaner = np.empty(n, dtype=bool)
         forward(np.asarray(ground, dtype=np.uint8), np.asarray(ranges, dtype=np.float32),
                 np.asarray(is_robot, dtype=bool), self._weights, self._offset, self._hidden,
-                self._recurrent, self._ir_range, self._top, self.previous, self.context,
-                wheels, cleaner)
+                self._recurrent, self._ir_range, self._top, self._stops, self.previous,
+                self.context, wheels, cleaner)
         np.multiply(cleaner, _CLEANING, out=self.state, casting='unsafe')
         return Command(wheels=wheels, cleaner=cleaner)
 

@@ -224,8 +224,44 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> Sw
         raise ParameterError(f'{source}: {error}') from None
 
 
+#: Parameters naming a file that a relative path names relative to the parameter file
+#: holding it (not the current directory).
+FILE_RELATIVE = (('controller', 'network_weights'),)
+
+
+def file_relative_values(document: Any, folder: Path) -> dict[str, str]:
+    """Each :data:`FILE_RELATIVE` parameter that ``document`` (a parsed parameter file in
+    ``folder``) gives as a relative path, made absolute against ``folder``: dotted key ->
+    path (a ``~`` path, an absolute one, an empty one or a malformed file is left alone)."""
+    try:
+        parameters = document['/**']['ros__parameters']
+    except (TypeError, KeyError):
+        return {}
+    found = {}
+    for section, key in FILE_RELATIVE:
+        value = parameters.get(section, {}).get(key) if isinstance(parameters, dict) and \
+            isinstance(parameters.get(section), dict) else None
+        if isinstance(value, str) and value and not value.startswith('~') and \
+                not os.path.isabs(value):
+            found[f'{section}.{key}'] = os.path.normpath(folder.resolve() / value)
+    return found
+
+
+def file_relative_overrides(path: str | Path) -> list[str]:
+    """The ``NAME:=VALUE`` overrides that hand a node the parameter file's relative file
+    paths resolved (a node's ``--params-file`` cannot tell it which file a value came from;
+    the launcher adds these). Empty if the file cannot be read (it is checked elsewhere)."""
+    try:
+        document = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError):
+        return []
+    return [f'{name}:={value}' for name, value in
+            file_relative_values(document, Path(path).parent).items()]
+
+
 def load_config(path: str | Path | None = None) -> SwarmConfig:
-    """Load and validate a parameter file (the shipped default when ``path`` is None).
+    """Load and validate a parameter file (the shipped default when ``path`` is None). A
+    relative path of a :data:`FILE_RELATIVE` parameter is relative to the file.
 
     Raises:
         ParameterError: the file is missing, not YAML, or holds an unknown or bad parameter.
@@ -237,6 +273,9 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
         raise ParameterError(f'cannot read {path}: {error.strerror}') from None
     except yaml.YAMLError as error:
         raise ParameterError(f'{path} is not valid YAML: {error}') from None
+    for name, value in file_relative_values(document, path.parent).items():
+        section, _, key = name.partition('.')
+        document['/**']['ros__parameters'][section][key] = value
     return config_from_ros_yaml(document, str(path))
 
 

@@ -16,6 +16,7 @@ from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import noise
 from swarm_world.arena import pack
+from swarm_world.delay import CommandDelay
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
@@ -71,6 +72,9 @@ class World:
         self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
                                        wheel=mona.wheel_noise)
         self.seed = 0  # the episode seed: the noise streams derive from it
+        #: World steps between a command and the wheels (mona.command_latency control steps).
+        self.latency_steps = mona.command_latency * params.control_steps
+        self.delay: CommandDelay | None = None  # the episode's delay line (None: no latency)
         self.physics = self._physics(np.zeros((0, 3)))
         self.time_ns = 0
         self.steps = 0
@@ -115,6 +119,7 @@ class World:
         self.field.reset()
         self._sensed = None
         self.physics = self._physics(poses)
+        self.delay = CommandDelay(self.latency_steps, len(poses)) if self.latency_steps else None
         self.time_ns = 0
         self.steps = 0
         self.cleaning = np.zeros(len(poses), dtype=bool)
@@ -209,16 +214,27 @@ class World:
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
         """Advance one step with these commands; clean on each cleaning-period boundary.
+        With ``mona.command_latency`` the commands drive a later step (:meth:`delayed`).
 
         Args:
             linear: [N] forward speeds (m/s).
             angular: [N] turn rates (rad/s, counter-clockwise).
             cleaner: [N] bool, the cleaning actuators.
         """
+        linear, angular, cleaner = self.delayed(linear, angular, cleaner)
         linear, angular = self.wheels(np.asarray(linear, dtype=np.float64),
                                       np.asarray(angular, dtype=np.float64))
         self.physics.step(linear, angular, self.params.step_period)
         self.moved(cleaner)
+
+    def delayed(self, linear: np.ndarray, angular: np.ndarray,
+                cleaner: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The commands that reach the wheels and the cleaner at this step: these ones
+        without latency, else those given ``latency_steps`` steps ago (a stop before the
+        first). Called once per step, by :meth:`step` or the batch."""
+        if self.delay is None:
+            return linear, angular, cleaner
+        return self.delay.shift(linear, angular, cleaner)
 
     def wheels(self, linear: np.ndarray, angular: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The speeds the wheels deliver for the commanded (linear, angular): with wheel noise,
@@ -271,6 +287,9 @@ class WorldBatch:
                     np.array([mona.ir_range for mona in monas]),
                     np.array([world.params.arena_side for world in worlds]),
                     pack([world.arena for world in worlds]))
+        # The worlds whose commands reach the wheels late (mona.command_latency), with rows.
+        self._delayed = [(world, rows) for world, rows in zip(worlds, self.slices)
+                         if world.delay is not None]
         # The worlds with each kind of noise (usually none), with their rows.
         self._noisy_wheels, self._noisy_ground = (
             [(world, rows) for world, rows in zip(worlds, self.slices)
@@ -336,6 +355,11 @@ class WorldBatch:
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
         """Step every world once: robot rows as in :meth:`sense`, arguments as
         :meth:`World.step`'s."""
+        if self._delayed:
+            linear, angular, cleaner = linear.copy(), angular.copy(), cleaner.copy()
+            for world, rows in self._delayed:
+                linear[rows], angular[rows], cleaner[rows] = world.delayed(
+                    linear[rows], angular[rows], cleaner[rows])
         if self._noisy_wheels:
             linear, angular = linear.copy(), angular.copy()
             for world, rows in self._noisy_wheels:

@@ -21,8 +21,8 @@ MODEL_CHAIN: tuple[str, ...] = (
     'mona.ground_roughness', 'mona.ground_calibration', 'mona.ground_table',
     'mona.ground_baseline', 'mona.ground_offset', 'mona.ground_footprint', 'mona.ground_noise',
     'mona.ir_count', 'mona.ir_span', 'mona.ir_range', 'mona.ir_robot_factor',
-    'mona.robot_detection', 'mona.wall_margin', 'world.cell_size', 'world.cleaning',
-    'world.control_steps', 'controller.turn_at',
+    'mona.robot_detection', 'mona.wall_margin', 'mona.command_latency', 'world.cell_size',
+    'world.cleaning', 'world.control_steps', 'controller.turn_at',
 )
 #: The shipped profiles (in the source tree).
 PROFILES_DIR = DEFAULT_CONFIG.parent / 'profiles'

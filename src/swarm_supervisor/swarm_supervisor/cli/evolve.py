@@ -25,8 +25,15 @@ def register(subparsers) -> None:
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
                         help='the evolution folder (created; a run of the same design is '
                              'resumed from its last generation)')
-    parser.add_argument('--jobs', type=bounded(int, 1), default=1, metavar='J',
+    parser.add_argument('--jobs', type=bounded(int, 1), default=None, metavar='J',
                         help='worker processes (default 1: episodes run in this process)')
+    parser.add_argument('--scheduler', metavar='ADDRESS',
+                        help="run each generation's batches on the workers of this Dask "
+                             'distributed scheduler (e.g. tcp://10.0.0.1:8786), the same '
+                             'scores as local processes (docs/learned.md)')
+    parser.add_argument('--scheduler-timeout', type=bounded(float, 0.1), default=30.0,
+                        metavar='SECONDS',
+                        help='how long to wait for the scheduler to answer (default: 30)')
     progress = parser.add_mutually_exclusive_group()
     progress.add_argument('--progress', dest='shown', action='store_true', default=None,
                           help='show the progress bar (default: only on a terminal)')
@@ -36,11 +43,15 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evolve, then say where the results are."""
-    from swarm_supervisor.evolution import evolve, load_design
+    from swarm_supervisor.evolution import EvolutionError, evolve, load_design
 
+    if args.scheduler and args.jobs:
+        raise EvolutionError('--jobs and --scheduler exclude each other (a cluster has as '
+                             'many jobs as its workers run)')
     design = load_design(args.design)
     try:
-        rows = evolve(design, args.out, jobs=args.jobs, shown=args.shown)
+        rows = evolve(design, args.out, jobs=args.jobs or 1, scheduler=args.scheduler,
+                      scheduler_timeout=args.scheduler_timeout, shown=args.shown)
     except KeyboardInterrupt:
         print('mona-swarm evolve: interrupted: the generations finished are kept; rerun the '
               'same command to resume', file=sys.stderr)

@@ -6,7 +6,8 @@ drawn from the design's seed on a stream of their own and never a training seed.
 is the evolution's fitness (the episode's mean cue fraction, lower is better); a paired
 Wilcoxon signed-rank test (scipy) compares them per scenario. Writes ``compare.csv`` (one
 row per scenario and seed), ``compare.json`` (per scenario: means, medians, the median paired
-difference, wins, the statistic and p-value) and ``compare.png``.
+difference, wins, the statistic and p-value, and both controllers' behaviour on the first
+seed, :mod:`swarm_supervisor.evolution.behaviour`) and ``compare.png``.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.evolution.behaviour import behaviour
 from swarm_supervisor.evolution.design import Design
 from swarm_supervisor.evolution.fitness import genome_config, run_scores, training_seeds
 
@@ -78,6 +80,9 @@ def compare(design: Design, out: Path, pool: Any | None, jobs: int) -> dict[str,
         theirs = run_scores(beeclust, design.batch, pool, jobs)
         ours = run_scores(network, design.batch, pool, jobs)
         summary[name] = paired(theirs, ours)
+        # What each does, on the first held-out seed (evolution.behaviour).
+        summary[name]['behaviour'] = {'beeclust': behaviour(beeclust[0]),
+                                      'network': behaviour(network[0])}
         rows += [(name, seed, b, n) for seed, b, n in zip(seeds, theirs, ours)]
     with (out / 'compare.csv').open('w', newline='') as handle:
         writer = csv.writer(handle)

@@ -5,16 +5,26 @@ A design is a YAML file with one mapping, ``evolve``::
     evolve:
       config: ../mona_swarm.yaml   # the parameter file every episode starts from (relative
                                    # to this file; default: the shipped one)
-      seed: 1                      # the run's seed (CMA-ES and the training seeds), >= 1
-      genomes: 16                  # CMA-ES population: genomes per generation
+      seed: 1                      # the run's seed (the optimiser and the training
+                                   # seeds), >= 1
+      strategy: cma_es             # the optimiser: cma_es (pycma) or openai_es
+                                   # (evolution.strategies)
+      learning_rate: 0.01          # openai_es: Adam's step size
+      genomes: 16                  # the population: genomes per generation (even for
+                                   # openai_es, whose pairs are antithetic)
       generations: 30
       episodes: 4                  # episodes per genome, on the same seeds for every genome
                                    # of a generation (fresh seeds each generation)
       robots: 30                   # N
       duration: 1000.0             # s per episode
-      sigma: 0.5                   # CMA-ES initial step size (the genome starts at zero)
+      sigma: 0.5                   # the initial step size (the genome starts at zero;
+                                   # openai_es keeps it)
       hidden: 8                    # the net: hidden neurons (controller.network_hidden)
       recurrent: false             # an Elman net (controller.network_recurrent)
+      max_speed: 0.0               # m/s, the net's top wheel speed (controller.
+                                   # network_max_speed; 0: the Mona's top command)
+      clean_stops: false           # the net cleans only standing (controller.
+                                   # network_clean_stops); with max_speed, the fair match
       batch: 32                    # at most this many episodes stepped together per worker
       held_out: 100                # then: the best genome and BEECLUST on this many held-out
                                    # seeds (0: none; evolution.compare)
@@ -23,6 +33,8 @@ A design is a YAML file with one mapping, ``evolve``::
 
 Every key is checked when the design is loaded: an unknown key or a value out of range is
 refused with a message that names it (:class:`EvolutionError`, exit status 2).
+``generations`` may be raised (or lowered to the generations done) between runs of one
+folder: it is not part of what a resumed run must match (:meth:`Design.digest`).
 """
 
 from __future__ import annotations
@@ -37,6 +49,7 @@ import yaml
 from mona_controller.network import MAX_HIDDEN, genome_size
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.evolution.strategies import STRATEGIES
 
 
 class EvolutionError(ParameterError):
@@ -47,6 +60,8 @@ class EvolutionError(ParameterError):
 KEYS: dict[str, tuple[type, float | None, float | None, Any]] = {
     'config': (str, None, None, ''),
     'seed': (int, 1, 2**31 - 1, 1),
+    'strategy': (str, None, None, 'cma_es'),
+    'learning_rate': (float, 1e-6, 10.0, 0.01),
     'genomes': (int, 2, 4096, 16),
     'generations': (int, 1, 100_000, 30),
     'episodes': (int, 1, 1000, 4),
@@ -55,12 +70,15 @@ KEYS: dict[str, tuple[type, float | None, float | None, Any]] = {
     'sigma': (float, 1e-6, 1e3, 0.5),
     'hidden': (int, 1, MAX_HIDDEN, 8),
     'recurrent': (bool, None, None, False),
+    'max_speed': (float, 0.0, 1.0, 0.0),
+    'clean_stops': (bool, None, None, False),
     'batch': (int, 1, 4096, 32),
     'held_out': (int, 0, 100_000, 0),
     'compare': (list, None, None, []),
 }
-#: The keys of the post-evaluation, which leave the evolution itself unchanged.
-AFTERWARDS = ('held_out', 'compare')
+#: The keys of the post-evaluation, which leave the evolution itself unchanged, and
+#: ``generations``, which only says where it stops (a run may be extended).
+AFTERWARDS = ('generations', 'held_out', 'compare')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,6 +89,8 @@ class Design:
     base: SwarmConfig
     config: str
     seed: int
+    strategy: str
+    learning_rate: float
     genomes: int
     generations: int
     episodes: int
@@ -79,6 +99,8 @@ class Design:
     sigma: float
     hidden: int
     recurrent: bool
+    max_speed: float
+    clean_stops: bool
     batch: int
     held_out: int
     compare: tuple[str, ...]
@@ -96,6 +118,8 @@ class Design:
     def digest(self) -> str:
         """What a resumed run must match: the keys and the base parameters."""
         design = {k: v for k, v in self.to_dict().items() if k not in AFTERWARDS}
+        if self.strategy == 'cma_es':  # as before the keys existed: cma_es reads neither
+            del design['strategy'], design['learning_rate']
         return json.dumps({'design': design, 'base': self.base.to_dict()},
                           sort_keys=True, default=str)
 
@@ -141,6 +165,12 @@ def design_from_mapping(document: Any, path: str | Path = 'the design') -> Desig
                              + ', '.join(KEYS))
     values = {key: _checked(key, section.get(key, default))
               for key, (_, _, _, default) in KEYS.items()}
+    if values['strategy'] not in STRATEGIES:
+        raise EvolutionError(f"{path}: evolve.strategy = {values['strategy']!r}: one of "
+                             + ', '.join(STRATEGIES))
+    if values['strategy'] == 'openai_es' and values['genomes'] % 2:
+        raise EvolutionError(f"{path}: evolve.genomes = {values['genomes']}: openai_es "
+                             'needs an even number (its pairs are antithetic)')
     config = values['config']
     if config:
         config = str((Path(path).parent / config).resolve())

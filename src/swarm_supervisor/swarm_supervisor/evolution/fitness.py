@@ -6,8 +6,8 @@ the episode's mean cue fraction over time (the metrics' ``mean_cue_fraction`` at
 sample: lower is better, a cleaner arena). The episodes of all genomes are cut into batches
 of at most ``design.batch`` and run with the batched engine
 (:func:`~swarm_supervisor.engine.runner.run_batch`), in this process or on a pool of
-worker processes; a robot computes the same bits in any batch, so the fitness does not
-depend on how the episodes are cut or where they run.
+worker processes or a Dask cluster's workers; a robot computes the same bits in any batch,
+so the fitness does not depend on how the episodes are cut or where they run.
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ def genome_config(design: Design, weights: str | Path, seed: int) -> SwarmConfig
         episode={'population': design.robots, 'duration': design.duration, 'seed': seed},
         controller={'kind': 'network', 'network_hidden': design.hidden,
                     'network_recurrent': design.recurrent, 'network_weights': str(weights),
-                    'network_weights_sha256': ''})
+                    'network_weights_sha256': '', 'network_max_speed': design.max_speed,
+                    'network_clean_stops': design.clean_stops})
 
 
 def episode_fitness(metrics: Sequence[dict[str, float]]) -> float:
@@ -79,8 +80,9 @@ def batches(configs: Sequence[SwarmConfig], size: int, jobs: int) -> list[list[S
 
 def run_scores(configs: Sequence[SwarmConfig], size: int, pool: Any | None,
                jobs: int) -> list[float]:
-    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool``
-    (``jobs`` processes) or in this process."""
+    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool`` (a
+    multiprocessing pool of ``jobs`` processes or a
+    :class:`~swarm_supervisor.evolution.cluster.ClusterPool`) or in this process."""
     cut = batches(configs, size, jobs)
     if pool is None:
         scores = [run_configs(batch) for batch in cut]

@@ -1,14 +1,17 @@
-"""The evolution loop: CMA-ES (pycma) over the net's weights, resumable per generation.
+"""The evolution loop: an optimiser over the net's weights (CMA-ES or OpenAI-ES,
+:mod:`swarm_supervisor.evolution.strategies`), resumable per generation.
 
-Each generation CMA-ES proposes ``genomes`` weight vectors, every one is scored on the
-generation's training seeds (:mod:`swarm_supervisor.evolution.fitness`) and CMA-ES is told
-the scores. pycma draws its samples from numpy's global generator, seeded through its own
+Each generation the optimiser proposes ``genomes`` weight vectors, every one is scored on the
+generation's training seeds (:mod:`swarm_supervisor.evolution.fitness`) and the optimiser is
+told the scores. pycma draws its samples from numpy's global generator, seeded through its own
 ``seed`` option; the loop keeps that generator's state apart (restored before each ``ask``),
 so nothing else in the process moves it. After each generation ``checkpoint.pkl`` is
 replaced atomically (``os.replace``): the pickled optimiser, the generator's state, the
 generation and the rows of ``generations.csv``. A run started on a folder with a checkpoint
 of the same design carries on from it, so the same seed and design give the same run,
-interrupted or not (wall times aside).
+interrupted or not (wall times aside). The episodes run in this process, on a pool of
+spawned processes (``jobs``) or on the workers of a Dask scheduler (``scheduler``,
+:mod:`swarm_supervisor.evolution.cluster`), with the same scores on each.
 
 Outputs in the folder: ``generations.csv`` (generation, best, mean, worst, sigma, wall_s),
 ``fitness.png``, ``best.npz`` (the best genome evaluated so far, as weights), ``design.yaml``
@@ -33,8 +36,11 @@ import yaml
 from tqdm import tqdm
 
 from mona_controller.network import save_weights, weights_from_genome
+from swarm_supervisor.evolution import strategies
+from swarm_supervisor.evolution.cluster import ClusterPool
 from swarm_supervisor.evolution.design import Design, EvolutionError
 from swarm_supervisor.evolution.fitness import evaluate
+from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
 
 #: The columns of generations.csv.
 COLUMNS = ('generation', 'best', 'mean', 'worst', 'sigma', 'wall_s')
@@ -42,12 +48,9 @@ CHECKPOINT = 'checkpoint.pkl'
 
 
 def new_strategy(design: Design) -> Any:
-    """A seeded CMA-ES with file logging and printing off, its mean at zero weights."""
-    import cma
-
-    options = {'seed': design.seed, 'popsize': design.genomes, 'verb_log': 0,
-               'verbose': -9, 'verb_disp': 0}
-    return cma.CMAEvolutionStrategy(np.zeros(design.genome_size), design.sigma, options)
+    """The design's seeded optimiser (:mod:`.strategies`), its mean at zero weights."""
+    return strategies.new_strategy(design.strategy, design.genome_size, design.sigma,
+                                   design.genomes, design.seed, design.learning_rate)
 
 
 def write_atomically(path: Path, data: bytes) -> None:
@@ -112,62 +115,88 @@ def save_best(out: Path, design: Design, genome: np.ndarray) -> str:
         genome, design.base.mona.ir_count, design.hidden, design.recurrent))
 
 
-def evolve(design: Design, out: Path, *, jobs: int = 1, shown: bool | None = None,
+def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = None,
+           scheduler_timeout: float = CONNECT_TIMEOUT, shown: bool | None = None,
            on_checkpoint: Any = None) -> list[dict[str, float]]:
     """Run (or resume) the evolution of ``design`` in ``out``; the rows of generations.csv.
 
-    ``jobs`` > 1 scores the episodes on that many spawned worker processes; ``shown``
-    shows the progress bar (None: only on a terminal).
+    ``jobs`` > 1 scores the episodes on that many spawned worker processes; ``scheduler``
+    (a Dask scheduler's address) on that cluster's workers instead (:mod:`.cluster`), the
+    same scores; ``shown`` shows the progress bar (None: only on a terminal).
+
+    Raises:
+        EvolutionError: ``out`` holds another design's run, or more generations.
+        ClusterError: the scheduler does not answer (before anything is written).
     """
+    if scheduler is not None:
+        cluster = ClusterPool(scheduler, scheduler_timeout)
+        try:
+            rows = _evolve(design, out, cluster, cluster.jobs, shown, on_checkpoint)
+        except BaseException:
+            cluster.terminate()  # cancels what is still pending
+            raise
+        cluster.close()
+        return rows
+    pool = multiprocessing.get_context('spawn').Pool(jobs) if jobs > 1 else None
+    try:
+        rows = _evolve(design, out, pool, jobs, shown, on_checkpoint)
+    except BaseException:
+        if pool is not None:
+            pool.terminate()
+        raise
+    else:
+        if pool is not None:
+            pool.close()
+    finally:
+        if pool is not None:
+            pool.join()
+    return rows
+
+
+def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool | None,
+            on_checkpoint: Any) -> list[dict[str, float]]:
+    """The loop of :func:`evolve` on ``pool`` (None: this process) of ``jobs`` workers."""
     out.mkdir(parents=True, exist_ok=True)
     state = load_checkpoint(out, design)
     if state is None:
         strategy = new_strategy(design)
         state = {'digest': design.digest(), 'strategy': strategy, 'generation': 0,
                  'random': np.random.get_state(), 'rows': [], 'best': None}
-        (out / 'design.yaml').write_text(yaml.safe_dump({'evolve': design.to_dict()},
-                                                        sort_keys=False))
+    elif state['generation'] > design.generations:
+        raise EvolutionError(f'{out} holds {state["generation"]} generations, more than '
+                             f'evolve.generations = {design.generations}; raise it to '
+                             'resume, or set it to the generations done')
+    # Rewritten each run: a resumed run may have raised (or cut) evolve.generations.
+    (out / 'design.yaml').write_text(yaml.safe_dump({'evolve': design.to_dict()},
+                                                    sort_keys=False))
     strategy, rows = state['strategy'], state['rows']
-    pool = None
-    if jobs > 1:
-        pool = multiprocessing.get_context('spawn').Pool(jobs)
     disable = None if shown is None else not shown
-    try:
-        with tqdm(total=design.generations, initial=state['generation'], desc='generations',
-                  unit='gen', disable=disable, file=sys.stderr) as bar:
-            for generation in range(state['generation'], design.generations):
-                started = time.perf_counter()
-                np.random.set_state(state['random'])
-                genomes = np.array(strategy.ask())
-                scores = evaluate(design, genomes, generation, out / 'genomes', pool, jobs)
-                strategy.tell(list(genomes), scores)
-                best = int(np.argmin(scores))
-                if state['best'] is None or scores[best] < state['best'][0]:
-                    state['best'] = (scores[best], genomes[best].copy())
-                rows.append({'generation': generation, 'best': min(scores),
-                             'mean': float(np.mean(scores)), 'worst': max(scores),
-                             'sigma': float(strategy.sigma),
-                             'wall_s': round(time.perf_counter() - started, 3)})
-                state.update(generation=generation + 1, random=np.random.get_state())
-                save_best(out, design, state['best'][1])
-                write_csv(out, rows)
-                write_atomically(out / CHECKPOINT, pickle.dumps(state))
-                bar.update(1)
-                bar.set_postfix(best=f'{state["best"][0]:.4f}')
-                if on_checkpoint is not None:
-                    on_checkpoint(generation)
-        if design.held_out and not (out / 'compare.json').exists():
-            from swarm_supervisor.evolution.compare import compare
+    with tqdm(total=design.generations, initial=state['generation'], desc='generations',
+              unit='gen', disable=disable, file=sys.stderr) as bar:
+        for generation in range(state['generation'], design.generations):
+            started = time.perf_counter()
+            np.random.set_state(state['random'])
+            genomes = np.array(strategy.ask())
+            scores = evaluate(design, genomes, generation, out / 'genomes', pool, jobs)
+            strategy.tell(list(genomes), scores)
+            best = int(np.argmin(scores))
+            if state['best'] is None or scores[best] < state['best'][0]:
+                state['best'] = (scores[best], genomes[best].copy())
+            rows.append({'generation': generation, 'best': min(scores),
+                         'mean': float(np.mean(scores)), 'worst': max(scores),
+                         'sigma': float(strategy.sigma),
+                         'wall_s': round(time.perf_counter() - started, 3)})
+            state.update(generation=generation + 1, random=np.random.get_state())
+            save_best(out, design, state['best'][1])
+            write_csv(out, rows)
+            write_atomically(out / CHECKPOINT, pickle.dumps(state))
+            bar.update(1)
+            bar.set_postfix(best=f'{state["best"][0]:.4f}')
+            if on_checkpoint is not None:
+                on_checkpoint(generation)
+    if design.held_out and not (out / 'compare.json').exists():
+        from swarm_supervisor.evolution.compare import compare
 
-            compare(design, out, pool, jobs)
-        if pool is not None:
-            pool.close()
-    except BaseException:
-        if pool is not None:
-            pool.terminate()
-        raise
-    finally:
-        if pool is not None:
-            pool.join()
+        compare(design, out, pool, jobs)
     plot(out, rows)
     return rows

@@ -76,6 +76,24 @@ def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
     move_into_place(partial, folder)
 
 
+def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):  # -> distributed.Client
+    """A client of the Dask scheduler at ``scheduler`` (also ``mona-swarm evolve``'s).
+
+    Raises:
+        ClusterError: dask.distributed is missing, or the scheduler does not answer within
+            ``timeout`` s.
+    """
+    try:
+        from dask.distributed import Client
+    except ImportError as error:  # pragma: no cover - dask is a requirement
+        raise ClusterError(f'--scheduler needs dask.distributed ({error})') from None
+    try:
+        return Client(scheduler, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError) as error:
+        raise ClusterError(f'cannot reach the Dask scheduler at {scheduler}: {error}') \
+            from None
+
+
 def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
                    scheduler: str, progress: bool | None, timeout: float = CONNECT_TIMEOUT
                    ) -> dict[str, tuple[float, float]]:
@@ -91,18 +109,11 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
         ClusterError: the scheduler does not answer within ``timeout`` s.
         Interrupted: stopped by a signal; its ``ran`` holds the episodes written before.
     """
-    try:
-        from dask.distributed import Client, as_completed
-    except ImportError as error:  # pragma: no cover - dask is a requirement
-        raise ClusterError(f'--scheduler needs dask.distributed ({error})') from None
     pending = [task for batch in batches for task in batch]
     if not pending:
         return {}
-    try:
-        client = Client(scheduler, timeout=timeout, set_as_default=False)
-    except (OSError, TimeoutError) as error:
-        raise ClusterError(f'cannot reach the Dask scheduler at {scheduler}: {error}') \
-            from None
+    client = connect(scheduler, timeout)
+    from dask.distributed import as_completed
     ran: dict[str, tuple[float, float]] = {}
     futures = []
     try:

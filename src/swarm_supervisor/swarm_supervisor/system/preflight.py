@@ -13,7 +13,7 @@ from pathlib import Path
 import yaml
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor.config import SwarmConfig, load_config
+from swarm_supervisor.config import SwarmConfig, file_relative_overrides, load_config
 from swarm_supervisor.engine.episode import place_swarm
 from swarm_world.placement import MAX_COVERAGE, PlacementError
 
@@ -40,8 +40,10 @@ def check_roles(options: argparse.Namespace, population: int) -> None:
 
 
 def run_overrides(options: argparse.Namespace) -> list[str]:
-    """The ``NAME:=VALUE`` overrides every node gets: the options' parameters, then ``-p``."""
-    overrides = []
+    """The ``NAME:=VALUE`` overrides every node gets: the parameter file's relative file
+    paths resolved against it (:func:`~swarm_supervisor.config.file_relative_overrides`),
+    the options' parameters, then ``-p``."""
+    overrides = file_relative_overrides(options.config)
     if options.population is not None:
         overrides.append(f'episode.population:={options.population}')
     if options.duration is not None:

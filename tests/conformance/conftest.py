@@ -1,0 +1,222 @@
+"""The conformance suite's run: one world-side implementation, started as a black box from one
+command line, with the real controller nodes and the suite's probe, played through the
+probe's scenario once per session; every rule's test then reads the record.
+
+Options (tests/conformance/README.md):
+
+- ``--world-cmd NAME-OR-COMMAND``: a name of implementations.IMPLEMENTATIONS (default: the
+  first, ``world``) or a command line with ``{domain}``, ``{params}``, ``{population}``;
+- ``--world-mode lockstep|realtime``: for a command line, which Stepping rules it follows
+  (realtime skips the tests marked ``lockstep``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import shlex
+import time
+
+import pytest
+import rclpy
+import yaml
+from rclpy.executors import SingleThreadedExecutor
+
+from harness import REPO, Processes, private_domain, ros_environment
+from implementations import IMPLEMENTATIONS, Implementation, resolve
+from probe import (
+    CONTROLLED,
+    POPULATION,
+    Probe,
+    Scenario,
+    init_context,
+    spin_briefly,
+    stamp_of,
+)
+
+#: The suite's parameter file: the shipped one, every section.
+PARAMS = REPO / 'ros_ws' / 'config' / 'mona_swarm.yaml'
+#: The implementation the self-test breaks (and the default).
+DEFAULT = next(iter(IMPLEMENTATIONS))
+#: Wall seconds an implementation may take to exit after the shutdown announcement.
+EXIT_TIMEOUT = 20.0
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup('conformance', 'the world-side conformance suite')
+    group.addoption('--world-cmd', default=os.environ.get('CONFORMANCE_WORLD'),
+                    help='implementation name or command line (env CONFORMANCE_WORLD)')
+    group.addoption('--world-mode', default=None, choices=('lockstep', 'realtime'),
+                    help="a command line's stepping mode (default lockstep)")
+
+
+def option(config: pytest.Config, name: str) -> str | None:
+    """A suite option; a bare ``pytest`` from the root (``make test``) does not load this
+    conftest early enough to add them: then the environment or the default."""
+    fallback = os.environ.get('CONFORMANCE_WORLD') if name == '--world-cmd' else None
+    return config.getoption(name, default=fallback)
+
+
+def implementation(config: pytest.Config) -> tuple[str, Implementation]:
+    """The implementation the options name (the mode option applied)."""
+    name, chosen = resolve(option(config, '--world-cmd'))
+    mode = option(config, '--world-mode')
+    return name, (dataclasses.replace(chosen, mode=mode) if mode else chosen)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    name, chosen = implementation(config)
+    for item in items:
+        if chosen.mode != 'lockstep' and item.get_closest_marker('lockstep'):
+            item.add_marker(pytest.mark.skip(reason=f'{name} steps in {chosen.mode}'))
+        if name != DEFAULT and item.get_closest_marker('selftest'):
+            item.add_marker(pytest.mark.skip(reason='the self-test runs on the default world'))
+
+
+@dataclasses.dataclass
+class Run:
+    """The record of one scenario, with the lookups the rules need."""
+
+    name: str
+    implementation: Implementation
+    params: dict
+    probe: Probe
+    scenario: Scenario
+    world_exit: int | None  #: the world's exit status (None: it did not exit)
+    world_log: str
+    controllers_exit: int | None
+
+    @property
+    def step_ns(self) -> int:
+        return self.probe.step_ns
+
+    @property
+    def mona(self) -> dict:
+        return self.params['mona']
+
+    @property
+    def world(self) -> dict:
+        return self.params['world']
+
+    def episode(self, k: int) -> dict:
+        """The announcement of episode ``k`` (fails the test if the scenario never got there)."""
+        if k not in self.scenario.announced:
+            pytest.fail(f'the scenario never announced episode {k}: {self.scenario.log}')
+        return self.scenario.announced[k]
+
+    def steps(self, k: int) -> int:
+        """Episode ``k``'s step count: its duration rounded up to whole steps."""
+        return math.ceil(round(self.episode(k)['duration'] * 1e9) / self.step_ns)
+
+    def window(self, k: int) -> tuple[int, int]:
+        """[start_ns, end_ns] of episode ``k``'s sim time."""
+        start = self.episode(k)['start_ns']
+        return start, start + self.steps(k) * self.step_ns
+
+    def readings(self, robot: int, kind: str, k: int) -> list[tuple[float, int, object]]:
+        """(received, stamp, message) of ``robot``'s ``kind`` stamped in episode ``k``."""
+        low, high = self.window(k)  # step k's readings: t_k < end (the next episode's
+        # step 0 may share the end's stamp)
+        return [item for item in self.probe.readings.get((robot, kind), [])
+                if low <= item[1] < high]
+
+    def poses_at(self, stamp: int, last: bool = False):
+        """The /world/poses of this stamp (None if none came): the first one, or with
+        ``last`` the last one (an episode's final poses and the next one's step 0 may share a
+        stamp)."""
+        found = [poses for _, when, poses in self.probe.poses if when == stamp]
+        return (found[-1] if last else found[0]) if found else None
+
+    def poses_near(self, stamp: int):
+        """The /world/poses of this stamp, else the nearest within a step (a realtime driver
+        may stamp its tracked poses apart from its readings); None if none is that near."""
+        exact = self.poses_at(stamp)
+        if exact is not None or not self.probe.poses:
+            return exact
+        gap, poses = min((abs(when - stamp), poses) for _, when, poses in self.probe.poses)
+        return poses if gap <= self.step_ns else None
+
+    def maps(self, k: int, name: str = 'cue_map') -> list:
+        """Episode ``k``'s ``name`` messages (cue_map, cue_grid, markers): stamped in its window
+        and received after its announcement and before the next one's (an episode's last map
+        and the next one's first may share a stamp)."""
+        low, high = self.window(k)
+        after = self.scenario.marks.get(f'announced_{k}', 0.0)
+        before = self.scenario.marks.get(f'announced_{k + 2 if k == 0 else k + 1}', math.inf)
+        return [msg for when, msg in self.probe.latched[name]
+                if after <= when < before and low <= stamp_of(msg) <= high]
+
+    def statuses(self, k: int) -> list[dict]:
+        """The /world/status documents of episode ``k``, in arrival order."""
+        return [doc for _, doc in self.probe.status if doc.get('episode') == k]
+
+    def final_status(self, k: int) -> dict:
+        ended = [doc for doc in self.statuses(k) if doc.get('state') in ('finished', 'failed')]
+        if not ended:
+            pytest.fail(f'episode {k} never ended on /world/status: {self.scenario.log}\n'
+                        f'{self.world_log[-2000:]}')
+        return ended[-1]
+
+
+def start_world(processes: Processes, template: str, domain: int):
+    """Start the implementation's command line; a command that cannot be started ends the
+    session with a message naming what is wrong (exit status 2), not a traceback."""
+    try:
+        command = shlex.split(template.format(domain=domain, params=PARAMS,
+                                              population=POPULATION))
+    except (KeyError, IndexError, ValueError) as error:
+        pytest.exit(f'--world-cmd {template!r}: {error!r}; the placeholders are {{domain}}, '
+                    '{params} and {population}', returncode=2)
+    if not command:
+        pytest.exit('--world-cmd is empty', returncode=2)
+    try:
+        return processes.spawn(command, 'world')
+    except OSError as error:
+        pytest.exit(f'--world-cmd: cannot start {command[0]!r}: {error.strerror}',
+                    returncode=2)
+
+
+@pytest.fixture(scope='session')
+def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Run:
+    """Start the implementation and the controllers, play the scenario, stop everything."""
+    name, chosen = implementation(request.config)
+    params = yaml.safe_load(PARAMS.read_text())['/**']['ros__parameters']
+    folder = tmp_path_factory.mktemp('conformance')
+    with private_domain() as domain, pytest.MonkeyPatch.context() as patch:
+        env = ros_environment(domain)
+        for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
+            patch.setenv(key, env[key])
+        for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY'):
+            patch.delenv(key, raising=False)
+        processes = Processes(env, folder)
+        world = start_world(processes, chosen.command, domain)
+        robots = f'{CONTROLLED[0]}-{CONTROLLED[-1]}'
+        controllers = processes.spawn(['mona_controller_node', '--robots', robots,
+                                       '--ros-args', '--params-file', str(PARAMS)],
+                                      'controllers')
+        context = init_context(domain)
+        probe = Probe(params, context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(probe)
+        scenario = Scenario(probe, executor, lambda: world.poll() is None)
+        try:
+            scenario.run()
+            if not probe.status and world.poll() is not None:
+                pytest.exit(f'{name}: the implementation exited with status {world.poll()} '
+                            f'before its first /world/status:\n'
+                            f'{processes.log("world")[-3000:]}', returncode=1)
+            deadline = time.monotonic() + EXIT_TIMEOUT
+            while time.monotonic() < deadline and (world.poll() is None
+                                                   or controllers.poll() is None):
+                spin_briefly(executor, 0.1)
+            world_exit, controllers_exit = world.poll(), controllers.poll()
+        finally:
+            executor.remove_node(probe)
+            probe.destroy_node()
+            executor.shutdown()
+            rclpy.try_shutdown(context=context)
+            processes.stop_all()
+    return Run(name, chosen, params, probe, scenario, world_exit, processes.log('world'),
+               controllers_exit)
+

@@ -1,0 +1,61 @@
+"""The world-side implementations the conformance suite knows by name.
+
+One line each: the command that starts the implementation as a black box, for the robots
+``/mona_0 .. /mona_{population-1}``, on the suite's private ROS domain, with the suite's
+parameter file. Placeholders, filled by the suite: ``{domain}`` (ROS_DOMAIN_ID, also set in
+the environment), ``{params}`` (a ROS 2 parameter file with every section, the shipped
+ros_ws/config/mona_swarm.yaml), ``{population}`` (the most robots an episode of the suite
+announces). ``--world-cmd NAME`` picks one; any other ``--world-cmd`` text is taken as a
+command line of its own (tests/conformance/README.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+
+@dataclasses.dataclass(frozen=True)
+class Implementation:
+    """A world-side implementation and what the suite may expect of it."""
+
+    command: str  #: a shell-free command line (split on spaces), with the placeholders above
+    mode: str = 'lockstep'  #: 'lockstep' or 'realtime': the Stepping rules it follows
+    #: How far its poses and readings may stray from exact geometry (m): 0-ish for a
+    #: simulation, a tracker's and an IR calibration's error for real robots.
+    pose_tolerance: float = 1e-6
+    range_tolerance: float = 1e-4
+    cue_tolerance: float = 2.5  #: cue units (a cell's value rounded to mono8)
+    #: Its publishing periods of sim time (the world node's defaults; docs/interfaces.md).
+    status_period: float = 1.0
+    map_period: float = 1.0
+    #: Needs the firmware's Debian tools (gcc-avr, simavr: make firmware-tools).
+    needs_firmware: bool = False
+
+
+#: name -> implementation; the first is the default.
+IMPLEMENTATIONS: dict[str, Implementation] = {
+    # The simulated world node; a short deadline so the absent-robot rules cost little time.
+    'world': Implementation('world_node --ros-args --params-file {params} '
+                            '-p lockstep_deadline:=0.5 -p absent_after:=3'),
+    # The same node stepping on the wall clock, as a driver for real robots does.
+    'world-realtime': Implementation('world_node --ros-args --params-file {params} '
+                                     '-p mode:=realtime -p absent_after:=3', mode='realtime'),
+    # The driver for real Monas (docs/driver.md) on emulated ones: the firmware image in
+    # simavr per robot, moved by the world's physics, and a simulated tracker. Ranges come
+    # back through the robots' 10-bit IR ADC and the driver's calibration table, a link
+    # round later than the pose they are checked against (8 cm/s x 30 ms = 2.4 mm): 5 mm.
+    'driver': Implementation('driver_hil --robots {population} --params-file {params} '
+                             '--domain {domain} -- -p absent_after:=3', mode='realtime',
+                             range_tolerance=5e-3, needs_firmware=True),
+}
+
+
+def resolve(text: str | None) -> tuple[str, Implementation]:
+    """``--world-cmd``: a name of :data:`IMPLEMENTATIONS`, or a command line (lockstep, the
+    simulation's tolerances); None: the default."""
+    if not text:
+        name = next(iter(IMPLEMENTATIONS))
+        return name, IMPLEMENTATIONS[name]
+    if text in IMPLEMENTATIONS:
+        return text, IMPLEMENTATIONS[text]
+    return 'custom', Implementation(text)

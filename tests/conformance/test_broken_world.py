@@ -1,0 +1,45 @@
+"""The suite's self-test: run against a deliberately broken world (the world node behind a
+relay that reverses the beam order, broken/reversed_beams.py), the suite must fail, and fail
+the rule that is broken."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+
+import pytest
+
+from implementations import IMPLEMENTATIONS
+
+pytestmark = [pytest.mark.ros, pytest.mark.selftest]
+
+HERE = Path(__file__).resolve().parent
+#: The rules a reversed beam order may break: the order itself, and what is compared beam by
+#: beam with the geometry.
+BEAM_RULES = {'test_beams_run_right_to_left',
+              'test_ranges_are_measured_from_the_body_edge_inf_beyond_range_max',
+              'test_intensities_are_1_for_a_robot_and_0_otherwise'}
+
+
+def test_a_world_with_the_beams_reversed_fails_the_beam_order_rule(tmp_path):
+    world = IMPLEMENTATIONS['world'].command
+    command = f'{sys.executable} {HERE / "broken" / "reversed_beams.py"} ' \
+              f'--population {{population}} -- {world}'
+    report = tmp_path / 'report.xml'
+    result = subprocess.run(
+        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q',
+         '-p', 'no:cacheprovider', '--world-cmd', command, f'--junitxml={report}'],
+        capture_output=True, text=True, timeout=300, cwd=HERE.parents[1])
+    assert result.returncode == 1, result.stdout[-3000:]  # tests failed (not an error)
+    outcomes = {}
+    for case in ElementTree.parse(report).getroot().iter('testcase'):
+        name = case.get('name').split('[')[0]
+        failed = case.find('failure') is not None or case.find('error') is not None
+        outcomes[name] = outcomes.get(name, False) or failed
+    failed = {name for name, bad in outcomes.items() if bad}
+    assert 'test_beams_run_right_to_left' in failed, result.stdout[-3000:]
+    assert failed <= BEAM_RULES, failed - BEAM_RULES
+    # Everything the relay does not touch still conforms.
+    assert len(outcomes) - len(failed) >= 20
