@@ -37,8 +37,3 @@ def expected_at(bag: Path, at_s: float, layout: Path, mode: str) -> Expected:
                     states=None if states is None else states_from_cdr(states.data),
                     sources=np.array([(x, y) for _, x, y in sources]).reshape(-1, 2))
 
-
-def states_at(bag: Path, at_s: float) -> np.ndarray | None:
-    """The robots' controller states at ``at_s`` (None: the bag has no such topic)."""
-    message = latest(bag, '/world/robot_states', round(at_s * 1e9))
-    return None if message is None else states_from_cdr(message.data)
