@@ -191,6 +191,29 @@ def test_a_cue_map_loads_from_an_array_or_an_image(tmp_path):
         initial_cue(WorldParams(cue_file=str(tmp_path / 'missing.png')))
 
 
+
+def test_a_relative_cue_file_is_relative_to_its_parameter_file(tmp_path, monkeypatch):
+    from swarm_supervisor.config import file_relative_overrides, load_config
+
+    folder = tmp_path / 'configs'
+    (folder / 'maps').mkdir(parents=True)
+    array = np.zeros((10, 10))
+    array[:, :5] = 200.0  # the west half
+    np.save(folder / 'maps' / 'leak.npy', array)
+    params = folder / 'leak.yaml'
+    params.write_text('/**:\n  ros__parameters:\n    world: {arena_side: 1.0, '
+                      'cue_file: maps/leak.npy}\n')
+    elsewhere = tmp_path / 'elsewhere'
+    (elsewhere / 'maps').mkdir(parents=True)
+    np.save(elsewhere / 'maps' / 'leak.npy', np.full((10, 10), 50.0))  # not this one
+    monkeypatch.chdir(elsewhere)
+    world = load_config(params).world
+    assert world.cue_file == str(folder / 'maps' / 'leak.npy')
+    cue = initial_cue(world)
+    assert np.all(cue[:, :50] == 200.0) and cue[:, 50:].max() == 0.0
+    # The node system hands the world node the resolved path too.
+    assert file_relative_overrides(params) == [f'world.cue_file:={folder / "maps" / "leak.npy"}']
+
 @pytest.mark.parametrize(('world', 'message'), [
     ({'sources': {'West': [1.0, 1.0, 0.5, 255.0]}}, 'lower-case identifier'),
     ({'sources': {'a': [1.0, 1.0, 0.5]}}, r'world.sources.a = .*expected 4 numbers'),

@@ -226,7 +226,7 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> Sw
 
 #: Parameters naming a file that a relative path names relative to the parameter file
 #: holding it (not the current directory).
-FILE_RELATIVE = (('controller', 'network_weights'),)
+FILE_RELATIVE = (('controller', 'network_weights'), ('world', 'cue_file'))
 
 
 def file_relative_values(document: Any, folder: Path) -> dict[str, str]:

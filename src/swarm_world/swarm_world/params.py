@@ -64,8 +64,8 @@ class WorldParams:
                                    'closed loop from its position through these waypoints (m)')
     cue_file: str = param('', doc="initial cue from a .npy array (cue units, row = y) or an "
                                   "image (grey level, top = +y), scaled to the arena; a path "
-                                  "absolute or relative to the working directory (of every "
-                                  "node too); '' = the sources' profiles")
+                                  "absolute or relative to the parameter file naming it; '' "
+                                  "= the sources' profiles")
     diffusion: float = param(0.0, unit='m^2/s', low=0.0, high=1.0,
                              doc='diffusion coefficient of the cue (0: none)')
     half_life: float = param(0.0, unit='s', low=0.0, high=1e9,
