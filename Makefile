@@ -10,7 +10,7 @@ PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supe
 STUDY_OUT ?= results/study
 
 .PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware \
-	browser-tools conformance
+	browser-tools conformance test-extended
 
 venv: $(VENV)/.installed
 
@@ -26,6 +26,11 @@ run: venv
 
 test: lint typecheck firmware-tools browser-tools
 	$(PY) -m pytest
+
+# The extended tier (not in make test or CI): other forms of tests make test runs once
+# (pyproject.toml's 'extended' marker), e.g. a metrics node stalled at every moment
+test-extended: venv firmware-tools
+	$(PY) -m pytest -m extended
 
 lint: venv
 	$(VENV)/bin/ruff check .

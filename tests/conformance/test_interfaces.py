@@ -237,7 +237,10 @@ def test_a_cmd_vel_stamped_with_the_readings_it_answers_drives_the_robot(run):
     realtime, 0.3 to 2 times as far: a command drives until the next one arrives)."""
     start = run.window(0)[0]
     first, last = ROBOT3_DRIVES[0], ROBOT3_DRIVES[-1] + 1
-    before, after = (run.poses_near(start + k * run.step_ns) for k in (first, last + 2))
+    # In realtime the motion shows up later (a link, a firmware, a tracker between command
+    # and pose: the emulated driver's robot 3 had not moved yet 2 steps on, once in five runs).
+    settle = 2 if run.implementation.mode == 'lockstep' else 16
+    before, after = (run.poses_near(start + k * run.step_ns) for k in (first, last + settle))
     assert before is not None and after is not None
     moved = after[3, :2] - before[3, :2]
     heading = np.array([math.cos(before[3, 2]), math.sin(before[3, 2])])

@@ -110,7 +110,9 @@ def test_after_the_run_the_live_view_serves_its_final_state_until_ctrl_c(tmp_pat
         assert (run.out / 'episode_0' / 'bag' / 'metadata.yaml').exists()  # closed
         seen = connect_when_up(f'ws://127.0.0.1:{port}', timeout=30, seconds=30, done=final,
                                subprotocols=[LEGACY_SUBPROTOCOL])
-        assert seen.subprotocol == LEGACY_SUBPROTOCOL and final(seen), sorted(seen.messages)
+        assert seen.subprotocol == LEGACY_SUBPROTOCOL and final(seen), (
+            sorted(seen.messages),
+            [json.loads(m.data)['state'] for _, m in seen.messages.get('/world/status', ())])
         log_time, poses = seen.messages['/world/poses'][-1]
         assert log_time >= 8 * 10**9 and len(poses.poses) == POPULATION  # the end's poses
         states = bytes(seen.messages['/world/robot_states'][-1][1].data)
