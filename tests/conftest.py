@@ -15,7 +15,7 @@ the test (the machinery is in tests/harness.py).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -52,3 +52,37 @@ def busy_cores() -> Iterator[None]:
     """Every core busy for the duration of the test (bounded, stopped afterwards)."""
     with busy_loops():
         yield
+
+
+@pytest.fixture
+def executor(ros_env: dict[str, str]) -> Iterator:
+    """An initialised rclpy context (private domain) with one executor; all torn down after
+    (the node-level tests of tests/ros and tests/driver)."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=int(ros_env['ROS_DOMAIN_ID']))
+    executor = SingleThreadedExecutor(context=context)
+    try:
+        yield executor
+    finally:
+        for node in executor.get_nodes():
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture
+def spin_until(executor) -> Callable[..., None]:
+    """``spin_until(condition, timeout, what)``: spin the executor until condition() holds."""
+    import time
+
+    def spin(condition: Callable[[], bool], timeout: float = 30.0, what: str = '') -> None:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            assert time.monotonic() < deadline, f'timed out after {timeout} s: {what}'
+            executor.spin_once(timeout_sec=0.05)
+
+    return spin
