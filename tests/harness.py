@@ -10,7 +10,6 @@ from pathlib import Path
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
 from swarm_supervisor.system.processes import (  # noqa: F401
-    PROFILE,
     domain_shm_files,
     group_pids,
     groups_shm,

@@ -51,7 +51,7 @@ from mona_controller.messages import (
 )
 from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
@@ -137,6 +137,7 @@ class WorldNode(Node):
     def __init__(self, *, parameter_overrides: Sequence[Parameter] = (), **kwargs) -> None:
         super().__init__('world', parameter_overrides=[Parameter('use_sim_time', value=False),
                                                        *parameter_overrides], **kwargs)
+        declare_plugins(self)  # before world.layout, which may name a plug-in's layout
         self.params = declare_section(self, WorldParams, 'world.')
         self.mona = declare_section(self, MonaParams, 'mona.')
         self.options = declare_section(self, WorldNodeParams)

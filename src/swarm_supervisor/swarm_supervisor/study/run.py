@@ -46,10 +46,16 @@ def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
 
 
 def _check_kept(folder: Path, config: SwarmConfig) -> None:
-    """Refuse to mix a finished episode run with other parameters into this study. A
-    parameter the episode's record lacks (one added to the schema since) counts as its
-    default: that is what the episode ran."""
+    """Refuse to mix a finished episode run with other parameters or other plug-in code into
+    this study. A parameter the episode's record lacks (one added to the schema since) counts
+    as its default: that is what the episode ran."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+    ran = {(plugin.get('path'), plugin.get('sha256')) for plugin in record.get('plugins', [])}
+    for plugin in config.plugins:
+        if (plugin.path, plugin.sha256) not in ran:
+            raise StudyError(f'{folder} was run without the plug-in {plugin.path} as it is now '
+                             f'(SHA-256 {plugin.sha256[:12]}...): --out holds a study that ran '
+                             f'other code; {FIX}')
     stored = record.get('parameters', {})
     expected = _expected_parameters(config)
     defaults = _expected_parameters(SwarmConfig())
