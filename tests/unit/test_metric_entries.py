@@ -76,7 +76,7 @@ def registered(plugin_dir: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Me
 def parameter_file(plugin_dir: Path) -> Path:
     """A parameter file beside the plug-in that names it (relative to the file)."""
     path = plugin_dir / 'params.yaml'
-    path.write_text("/**:\n  ros__parameters:\n    plugins: [under_robots.py]\n")
+    path.write_text('/**:\n  ros__parameters:\n    plugins: [under_robots.py]\n')
     return path
 
 

@@ -142,6 +142,7 @@ class WorldNode(Node):
         self.mona = declare_section(self, MonaParams, 'mona.')
         self.options = declare_section(self, WorldNodeParams)
         self.world = World(self.params, self.mona)
+        self.world.warm_up()  # the compiled kernels now, not in an episode's first step
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.finished = Future()  #: done on the shutdown announcement, or a fatal error
         self.exit_status = 0
