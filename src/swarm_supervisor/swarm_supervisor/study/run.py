@@ -108,8 +108,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     with the same parameters); the others run in batches of at most ``batch_size`` episodes
     stepped together (the batched engine), costliest first, over ``jobs`` worker
     processes; each episode is written as soon as it is done.
-    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, how it ended,
-    wall times) and ``all_metrics.csv``. The design and the folder are checked first
+    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran with which
+    plug-ins, how it ended, wall times) and ``all_metrics.csv``. The design and the folder are checked first
     (:func:`~swarm_supervisor.study.validate.check_design`,
     :func:`~swarm_supervisor.study.folder.claim_study_folder`): a refusal writes nothing.
     Ctrl-C or SIGTERM stops at once, cutting the running batches
@@ -149,7 +149,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     claim_study_folder(config, out)
     (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the checks: a refusal changes nothing
-    entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs)}
+    entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs),
+                             'plugins': config.plugin_records()}
 
     def record(ran: dict[str, tuple[float, float]], jobs: int, outcome: str,
                rendered: Sequence[Path] = ()) -> int:
