@@ -8,8 +8,9 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    # The paper's claims (swarm_supervisor.analysis.claims reads them with importlib.resources).
-    package_data={package_name: ['paper_claims.yaml']},
+    # The paper's claims (swarm_supervisor.analysis.claims reads them with importlib.resources,
+    # beside the module: package data of the analysis sub-package).
+    package_data={package_name + '.analysis': ['paper_claims.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),

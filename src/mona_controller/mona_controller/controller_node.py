@@ -165,7 +165,8 @@ class ControllerNode(Node):
         self.get_logger().info(f'episode {announcement.episode}: seed {announcement.seed}, '
                                f'start {announcement.start_ns} ns, '
                                + ('refused' if refused else
-                                  'active' if self.active else 'not in this population'))
+                                  f'active ({self.params.kind})' if self.active
+                                  else 'not in this population'))
         self._publish(self.pairs.start(announcement.start_ns))
 
     def _parameter_differences(self, announced: dict) -> list[str]:

@@ -109,8 +109,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     stepped together (the batched engine), costliest first, over ``jobs`` worker
     processes; each episode is written as soon as it is done.
     Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran with which
-    plug-ins, how it ended, wall times) and ``all_metrics.csv``. The design and the folder are checked first
-    (:func:`~swarm_supervisor.study.validate.check_design`,
+    plug-ins, how it ended, wall times) and ``all_metrics.csv``. The design and the folder
+    are checked first (:func:`~swarm_supervisor.study.validate.check_design`,
     :func:`~swarm_supervisor.study.folder.claim_study_folder`): a refusal writes nothing.
     Ctrl-C or SIGTERM stops at once, cutting the running batches
     (:mod:`~swarm_supervisor.study.interrupt`); finished episodes stay on disk and the next
