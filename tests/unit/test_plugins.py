@@ -161,3 +161,19 @@ def test_an_unknown_kind_or_metric_names_the_recipe():
     with pytest.raises(ClaimError, match=r"not 'under_me' .*docs/extending.md#a-metric"):
         parse_claim({'id': 'x', 'where': 'w', 'paper': 'p', 'check': {
             'kind': 'threshold', 'metric': 'under_me', 'at': 'end', 'op': '<', 'value': 1}})
+
+
+def test_an_installed_package_adds_plugins_through_its_entry_point(tmp_path: Path,
+                                                                   monkeypatch):
+    dist = tmp_path / 'my_layouts-1.0.dist-info'  # what pip installs: metadata, the module
+    dist.mkdir()
+    (dist / 'METADATA').write_text('Metadata-Version: 2.1\nName: my-layouts\nVersion: 1.0\n')
+    (dist / 'entry_points.txt').write_text('[mona_swarm.plugins]\nlayouts = my_layouts\n')
+    (tmp_path / 'my_layouts.py').write_text(RING.format(name='ring_installed', radius=0.4))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    config = load_config()  # any parameter file: installed plug-ins load with every one
+    [record] = [p for p in config.plugins if p.module == 'my_layouts']
+    assert (record.origin, record.name) == ('entry point', 'layouts')
+    assert record.path == str(tmp_path / 'my_layouts.py')
+    assert record.sha256 == hashlib.sha256((tmp_path / 'my_layouts.py').read_bytes()).hexdigest()
+    assert config.replace(world={'layout': 'ring_installed'}).world.arena().obstacles
