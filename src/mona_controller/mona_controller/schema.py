@@ -67,6 +67,17 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
     return field.metadata.get('spec')
 
 
+#: The metadata of a field that is not a parameter (e.g. the plug-ins a config loaded): the
+#: schema neither builds it from a mapping, nor gives it in one, nor declares it.
+NOT_A_PARAMETER = {'parameter': False}
+
+
+def parameter_fields(section: Any) -> tuple[dataclasses.Field, ...]:
+    """The fields of a section (class or instance) that are parameters or sections."""
+    return tuple(field for field in dataclasses.fields(section)
+                 if field.metadata.get('parameter', True))
+
+
 def _coerce_keyed(name: str, value: Any) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     """A mapping of names to non-empty lists of scalars, as (name, values) pairs in order."""
     if isinstance(value, tuple):  # already normalised (a copy of a built section)
@@ -154,7 +165,7 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         ParameterError: for an unknown key (listing the known ones) or a bad value.
     """
     mapping = dict(mapping or {})
-    known = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    known = {f.name: f for f in parameter_fields(cls)}
     unknown = sorted(set(mapping) - set(known))
     if unknown:
         raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
@@ -180,7 +191,7 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
 def to_mapping(section: Any) -> dict[str, Any]:
     """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
     out: dict[str, Any] = {}
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         value = getattr(section, field.name)
         spec = spec_of(field)
         if spec is None:
@@ -227,7 +238,7 @@ def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') ->
 
 def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
     """Every leaf field of an instance as (dotted name, value, spec)."""
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         spec = spec_of(field)
         value = getattr(section, field.name)
         if spec is None:
