@@ -251,7 +251,7 @@ class Announcement:
                 raise TypeError("'parameters' is not a mapping")
             poses = tuple((float(x), float(y), float(yaw)) for x, y, yaw in document['poses'])
             plugins = document.get('plugins', [])
-            if not isinstance(plugins, list) or not all(isinstance(p, dict) for p in plugins):
+            if not isinstance(plugins, (list, tuple)) or not all(isinstance(p, dict) for p in plugins):
                 raise TypeError("'plugins' is not a list of records")
             announcement = cls(episode=int(document['episode']), seed=int(document['seed']),
                                population=int(document['population']),
