@@ -20,9 +20,9 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'world_node = swarm_world.world_node:main',
-            'driver_node = swarm_world.driver.driver_node:main',
-            'driver_hil = swarm_world.driver.hil:main',
+            'world_node = swarm_world.ros.world_node:main',
+            'driver_node = swarm_world.ros.driver_node:main',
+            'driver_hil = swarm_world.ros.hil:main',
         ],
     },
 )

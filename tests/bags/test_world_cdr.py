@@ -29,10 +29,10 @@ from swarm_metrics.world_cdr import (
 )
 from swarm_supervisor.outputs.bag import status_json
 from swarm_world.arena import Arena, Disc, Polygon, Rect
-from swarm_world.arena_markers import SPHERE, sources_from_markers
 from swarm_world.field import CueField
+from swarm_world.messages.markers import SPHERE, sources_from_markers
 from swarm_world.params import WorldParams
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_grid,
     cue_image,

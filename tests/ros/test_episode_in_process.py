@@ -13,7 +13,7 @@ from mona_controller.controller_node import ControllerNode
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.system.supervisor_node import RUN_FILE, Supervisor
-from swarm_world.world_node import FINAL_FILE, WorldNode
+from swarm_world.ros.world_node import FINAL_FILE, WorldNode
 
 pytestmark = pytest.mark.ros
 

@@ -1,4 +1,4 @@
-"""The message conversions of mona_controller.messages and swarm_world.world_messages
+"""The message conversions of mona_controller.messages and swarm_world.ros.world_messages
 (message types only, no DDS)."""
 
 from __future__ import annotations
@@ -21,8 +21,7 @@ from mona_controller.messages import (
 from mona_controller.mona import MonaParams
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots, placement_rng
-from swarm_world.world import World
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_from_image,
     cue_grid,
@@ -30,6 +29,7 @@ from swarm_world.world_messages import (
     poses_from_pose_array,
     robot_markers,
 )
+from swarm_world.world import World
 
 
 @given(st.integers(0, 2**62))

@@ -9,8 +9,8 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine import run_batch, run_episode
-from swarm_world.delay import CommandDelay
 from swarm_world.params import WorldParams
+from swarm_world.sensing.delay import CommandDelay
 from swarm_world.world import World
 
 POSES = np.array([[0.5, 0.5, 0.0], [2.0, 2.0, 1.5], [1.4, 1.4, -2.0]])

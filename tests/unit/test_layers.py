@@ -31,8 +31,8 @@ SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs', 'e
 ADAPTERS = {
     'mona_controller.controller_node', 'mona_controller.messages', 'mona_controller.qos',
     'mona_controller.ros_params', 'mona_controller.shutdown',
-    'swarm_world.world_node', 'swarm_world.world_messages',
-    'swarm_world.driver.driver_node', 'swarm_world.driver.hil', 'swarm_world.driver.hil_tracker',
+    'swarm_world.ros.world_node', 'swarm_world.ros.world_messages',
+    'swarm_world.ros.driver_node', 'swarm_world.ros.hil', 'swarm_world.ros.hil_tracker',
     'swarm_metrics.metrics_node',
     'swarm_supervisor.system.supervisor_node', 'swarm_supervisor.system.live_node',
     'swarm_supervisor.system.replay',

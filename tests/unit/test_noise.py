@@ -9,9 +9,9 @@ import pytest
 from mona_controller.mona import MonaParams
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
-from swarm_world import noise
 from swarm_world.params import WorldParams
-from swarm_world.sensors import ground_readings
+from swarm_world.sensing import noise
+from swarm_world.sensing.sensors import ground_readings
 from swarm_world.world import World
 
 

@@ -10,7 +10,7 @@ from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots
 from swarm_world.reference import check_ir, first_difference, marched_ir
-from swarm_world.sensors import ground_readings, heading_trig, proximity, proximity_many
+from swarm_world.sensing.sensors import ground_readings, heading_trig, proximity, proximity_many
 from swarm_world.world import World
 
 BEARINGS = MonaParams().ir_bearings()

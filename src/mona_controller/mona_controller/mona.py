@@ -12,7 +12,7 @@ import numpy as np
 
 from mona_controller.schema import ParameterError, param, validate
 
-#: What a ground sensor reads on a cue value (swarm_world.transfer).
+#: What a ground sensor reads on a cue value (swarm_world.sensing.transfer).
 GROUND_TRANSFERS = ('linear', 'webots', 'table')
 #: How a robot tells a robot from a wall (swarm_world.world.World.perceive).
 ROBOT_DETECTIONS = ('beam', 'position')

@@ -42,8 +42,8 @@ from mona_controller.contract import (
     STATUS,
 )
 from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
-from swarm_world import arena_markers
 from swarm_world.frames import poses_from_rows
+from swarm_world.messages import markers as arena_markers
 from swarm_world.timing import crossed
 
 MAGIC = b'\x89MCAP0\r\n'

@@ -16,8 +16,8 @@ import struct
 import numpy as np
 
 from swarm_metrics.bag_writer import TYPESTORE
-from swarm_world import arena_markers
 from swarm_world.arena import Arena
+from swarm_world.messages import markers as arena_markers
 
 TYPES = TYPESTORE.types
 STRING = 'std_msgs/msg/String'
@@ -32,7 +32,7 @@ MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 CDR_LE = b'\x00\x01\x00\x00'
 WORLD_FRAME = 'world'
 #: RGBA per controller state: the colours of the robot markers and of the videos
-#: (:data:`swarm_world.arena_markers.STATE_COLOURS`, which the world node uses too).
+#: (:data:`swarm_world.messages.markers.STATE_COLOURS`, which the world node uses too).
 STATE_COLOURS = arena_markers.STATE_COLOURS
 #: The drawn height of a robot's cylinder marker (m).
 MARKER_HEIGHT = 0.05
@@ -81,7 +81,7 @@ def clock_cdr(ns: int) -> bytes:
 
 def pose_array_cdr(poses: np.ndarray, ns: int, frame: str = WORLD_FRAME) -> bytes:
     """geometry_msgs/PoseArray of [N, 3] poses (x, y, yaw; yaw as a z-axis quaternion), as the
-    world node fills it (swarm_world.world_messages.PoseArrayFiller), in one numpy pass."""
+    world node fills it (swarm_world.ros.world_messages.PoseArrayFiller), in one numpy pass."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     head = _header_cdr(ns, frame)
     head += b'\x00' * (-len(head) % 4) + struct.pack('<I', len(poses))
@@ -173,7 +173,7 @@ def _any_marker(stamp_ns: int, namespace: str, marker_id: int, kind: int,
 
 def obstacles_cdr(arena: Arena) -> bytes:
     """visualization_msgs/MarkerArray ``/world/obstacles``: one grey marker per obstacle of
-    ``arena`` (:mod:`swarm_world.arena_markers`), stamp 0; no obstacles, no markers. Built
+    ``arena`` (:mod:`swarm_world.messages.markers`), stamp 0; no obstacles, no markers. Built
     from the same marker data as the world node's message."""
     return _marker_array_cdr(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
                              arena_markers.COLOUR, 0)
@@ -182,7 +182,7 @@ def obstacles_cdr(arena: Arena) -> bytes:
 def sources_cdr(names: tuple[str, ...], positions: np.ndarray, ns: int) -> bytes:
     """visualization_msgs/MarkerArray ``/world/sources``: one sphere per source at
     ``positions`` [S, 2], stamped ``ns``; the same marker data as the world node's message
-    (:func:`swarm_world.arena_markers.source_markers`)."""
+    (:func:`swarm_world.messages.markers.source_markers`)."""
     return _marker_array_cdr(arena_markers.source_markers(names, positions.tolist()),
                              arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR, ns)
 

@@ -14,13 +14,13 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
-from swarm_world import noise
 from swarm_world.arena import pack
-from swarm_world.delay import CommandDelay
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import (
+from swarm_world.sensing import noise
+from swarm_world.sensing.delay import CommandDelay
+from swarm_world.sensing.sensors import (
     NO_NOISE,
     ground_kernel,
     ground_many_kernel,
@@ -29,8 +29,8 @@ from swarm_world.sensors import (
     proximity_many,
     sensor_geometry,
 )
+from swarm_world.sensing.transfer import transfer_table
 from swarm_world.timing import crossed
-from swarm_world.transfer import transfer_table
 
 #: No robot (what ``World.cleaned`` holds after a step without cleaning); read-only, shared.
 _NOBODY = np.zeros(0, dtype=np.int64)

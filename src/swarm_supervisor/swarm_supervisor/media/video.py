@@ -34,8 +34,8 @@ from mona_controller.controller import STATE_NAMES, WAIT
 from swarm_metrics.metrics import METRICS, plotted
 from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.recorded import AnimateError, Record, read_record
-from swarm_world.arena_markers import COLOUR as OBSTACLE_RGBA
 from swarm_world.field import CueField
+from swarm_world.messages.markers import COLOUR as OBSTACLE_RGBA
 
 ASPECT = 16 / 9
 #: The vertical pitch and height of the metric plots (figure fractions): three fill the

@@ -56,9 +56,7 @@ from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
-from swarm_world.timing import crossed, steps_for
-from swarm_world.world import World
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_grid,
     cue_image,
@@ -67,6 +65,8 @@ from swarm_world.world_messages import (
     robot_states,
     source_markers,
 )
+from swarm_world.timing import crossed, steps_for
+from swarm_world.world import World
 
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.

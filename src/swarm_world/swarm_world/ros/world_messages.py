@@ -16,9 +16,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mona_controller.contract import WORLD_FRAME
 from mona_controller.messages import ns_to_stamp, set_stamp
-from swarm_world import arena_markers
 from swarm_world.arena import Arena
 from swarm_world.frames import poses_from_rows, yaw_to_quaternion
+from swarm_world.messages import markers as arena_markers
 
 MARKER_HEIGHT = 0.05  # m, the drawn height of a robot cylinder
 
@@ -97,7 +97,7 @@ def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
 def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
                   stamp_ns: int) -> MarkerArray:
     """One cylinder per robot (ns 'robots', id = robot), coloured by its controller state
-    (:data:`swarm_world.arena_markers.STATE_COLOURS`: follow green, avoid orange, wait and
+    (:data:`swarm_world.messages.markers.STATE_COLOURS`: follow green, avoid orange, wait and
     clean red, turn blue), as the embedded runner's :func:`swarm_metrics.world_cdr.markers_cdr`."""
     out = MarkerArray()
     stamp = ns_to_stamp(stamp_ns)
@@ -118,7 +118,7 @@ def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
 
 
 def obstacle_markers(arena: Arena) -> MarkerArray:
-    """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.arena_markers`),
+    """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.messages.markers`),
     stamp 0; no obstacles, no markers."""
     return _marker_array(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
                          arena_markers.COLOUR, 0)
@@ -127,7 +127,7 @@ def obstacle_markers(arena: Arena) -> MarkerArray:
 def source_markers(names: tuple[str, ...], positions: np.ndarray,
                    stamp_ns: int) -> MarkerArray:
     """``/world/sources``: one magenta sphere per source at ``positions`` [S, 2], every
-    marker stamped ``stamp_ns`` (:func:`swarm_world.arena_markers.source_markers`)."""
+    marker stamped ``stamp_ns`` (:func:`swarm_world.messages.markers.source_markers`)."""
     return _marker_array(arena_markers.source_markers(names, positions.tolist()),
                          arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR,
                          stamp_ns)

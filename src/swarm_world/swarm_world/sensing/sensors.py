@@ -23,7 +23,7 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
-from swarm_world.transfer import transfer_table
+from swarm_world.sensing.transfer import transfer_table
 
 #: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
 NO_NOISE = np.zeros((0, 2))
@@ -53,7 +53,7 @@ def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
         geometry: (half the distance between the sensors, how far ahead of the axle they
             sit) in m (:func:`sensor_geometry`).
         table: the transfer's readings at evenly spaced cue values
-            (:func:`swarm_world.transfer.transfer_table`), or empty: the cell value itself.
+            (:func:`swarm_world.sensing.transfer.transfer_table`), or empty: the cell value itself.
         noise: [N, 2] reading units added before rounding, or :data:`NO_NOISE` (zero rows).
         out: [N, 2] uint8, filled and returned.
     """

@@ -13,7 +13,7 @@ time, as RViz and Foxglove take it), grey (:data:`COLOUR`), :data:`HEIGHT` tall:
   above), then two triangles per side wall (2 n), so 3 n - 2 triangles for n vertices.
 
 :func:`obstacle_markers` makes the markers; the world node
-(:func:`swarm_world.world_messages.obstacle_markers`) and the embedded runner
+(:func:`swarm_world.ros.world_messages.obstacle_markers`) and the embedded runner
 (:func:`swarm_metrics.world_cdr.obstacles_cdr`) build their messages from it, so both
 publish and record the same. :func:`obstacles_from_markers` turns decoded markers (rclpy's,
 rosbags', mcap-ros2-support's: anything with the message's fields) back into shapes, for the

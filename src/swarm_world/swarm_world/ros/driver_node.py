@@ -43,7 +43,7 @@ from swarm_world.driver.tracked import TrackedWorld
 from swarm_world.driver.wheels import to_permille, twist_to_wheels
 from swarm_world.frames import yaw_from_quaternion
 from swarm_world.params import WorldNodeParams, WorldParams
-from swarm_world.world_node import WorldNode
+from swarm_world.ros.world_node import WorldNode
 
 DRIVER_STATUS = '/driver/status'
 DRIVER_FILE = 'driver.json'

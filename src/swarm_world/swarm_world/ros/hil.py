@@ -43,7 +43,7 @@ from swarm_world.driver.params import DriverParams
 from swarm_world.driver.wheels import DEADBAND, pwm_to_permille
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics
-from swarm_world.sensors import proximity
+from swarm_world.sensing.sensors import proximity
 
 REPO = Path(__file__).resolve().parents[4]
 FIRMWARE = REPO / 'firmware'
@@ -481,14 +481,14 @@ def run(options: argparse.Namespace, extra: list[str], stop: dict) -> int:
     arena = Arena(options, world, mona, driver, firmwares)
     topic = options.tracker_topic or driver.tracker_topic
     links = ','.join(f'udp:127.0.0.1:{port}' for port in arena.ports())
-    command = [sys.executable, '-m', 'swarm_world.driver.driver_node', '--ros-args',
+    command = [sys.executable, '-m', 'swarm_world.ros.driver_node', '--ros-args',
                '--params-file', str(options.params_file), '-p', f'driver.links:={links}',
                '-p', f'driver.tracker_topic:={topic}', '-p', f'output_dir:={out}', *extra]
     driver_log = (out / 'driver_node.log').open('w')
     driver_process = subprocess.Popen(command, stdout=driver_log, stderr=subprocess.STDOUT,
                                       start_new_session=True)
     # Imported late: the harness above runs without ROS; the tracker needs it.
-    from swarm_world.driver.hil_tracker import Tracker, capture
+    from swarm_world.ros.hil_tracker import Tracker, capture
     tracker = Tracker(topic, arena.place)
     status = 0
     began, ticks = time.monotonic(), 0

@@ -1,0 +1,1 @@
+"""The world's messages without ROS: marker data (pure: no ROS)."""
