@@ -20,8 +20,8 @@ from std_msgs.msg import Bool, Float64, String
 
 from mona_controller import qos
 from mona_controller.messages import fill_twist, ground_image
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import find_mcap, read_episode_bag
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.reader import find_mcap, read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.episode import Episode
 from swarm_supervisor.engine.runner import run_episode

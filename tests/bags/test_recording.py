@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import McapScan, find_mcap, read_episode_bag
-from swarm_metrics.recording import Recorder, float64_cdr
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.reader import McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.recording import Recorder, float64_cdr
 from swarm_metrics.world_cdr import states_from_cdr
 from swarm_supervisor.config import load_config
 

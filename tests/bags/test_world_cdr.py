@@ -12,7 +12,7 @@ from std_msgs.msg import Float64, String
 from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
 from mona_controller.mona import MonaParams
-from swarm_metrics.bag_writer import TYPESTORE
+from swarm_metrics.bags.writer import TYPESTORE
 from swarm_metrics.world_cdr import (
     STATE_COLOURS,
     clock_cdr,

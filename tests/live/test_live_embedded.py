@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.media.recorded import read_record

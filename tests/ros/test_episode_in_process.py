@@ -176,7 +176,7 @@ def test_obstacles_reach_the_metrics_nodes_bag_as_the_embedded_runner_records_th
     """A lockstep episode among obstacles, recorded by the metrics node in this process: its
     bag holds the world's /world/obstacles once, at the episode's start, equal to the embedded
     runner's bag, and the episodes themselves are equal."""
-    from swarm_metrics.metrics_node import MetricsNode
+    from swarm_metrics.ros.metrics_node import MetricsNode
     from swarm_supervisor.outputs.bag import record_episode
 
     population, duration, seed = 8, 3.0, 2

@@ -33,7 +33,7 @@ ADAPTERS = {
     'mona_controller.ros_params', 'mona_controller.shutdown',
     'swarm_world.ros.world_node', 'swarm_world.ros.world_messages',
     'swarm_world.ros.driver_node', 'swarm_world.ros.hil', 'swarm_world.ros.hil_tracker',
-    'swarm_metrics.metrics_node',
+    'swarm_metrics.ros.metrics_node',
     'swarm_supervisor.system.supervisor_node', 'swarm_supervisor.system.live_node',
     'swarm_supervisor.system.replay',
 }

@@ -15,7 +15,7 @@ import struct
 
 import numpy as np
 
-from swarm_metrics.bag_writer import TYPESTORE
+from swarm_metrics.bags.writer import TYPESTORE
 from swarm_world.arena import Arena
 from swarm_world.messages import markers as arena_markers
 

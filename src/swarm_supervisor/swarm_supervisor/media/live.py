@@ -49,7 +49,7 @@ from mona_controller.contract import (
     WorldStatus,
     metric_topic,
 )
-from swarm_metrics.bag_writer import TYPESTORE
+from swarm_metrics.bags.writer import TYPESTORE
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.world_cdr import (
     clock_cdr,

@@ -40,9 +40,9 @@ from mona_controller.contract import (
     metric_topic,
     topic_of,
 )
-from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
-from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
-from swarm_metrics.bag_writer import EpisodeBagWriter, offered
+from swarm_metrics.bags.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
+from swarm_metrics.bags.reader import BagError, RawMessage, decode, decode_json, poses_of
+from swarm_metrics.bags.writer import EpisodeBagWriter, offered
 from swarm_metrics.metrics import metric_names
 
 STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type

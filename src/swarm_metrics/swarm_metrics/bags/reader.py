@@ -6,7 +6,7 @@ record parsers under a strict frame check, so every problem becomes a :class:`Ba
 says what is wrong, where, and what could be read:
 
 * a file cut short (a killed writer) raises :class:`TruncatedBagError`; ``mona-swarm recover``
-  (:mod:`swarm_metrics.recover`) rewrites everything before the cut as a valid bag;
+  (:mod:`swarm_metrics.bags.recover`) rewrites everything before the cut as a valid bag;
 * a damaged chunk (CRC, compression or framing) or a summary that disagrees with the data
   raises :class:`BagError`.
 
@@ -41,7 +41,7 @@ from mona_controller.contract import (
     SOURCES,
     STATUS,
 )
-from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
+from swarm_metrics.bags.writer import CUSTOM_PREFIX, TYPESTORE
 from swarm_world.frames import poses_from_rows
 from swarm_world.messages import markers as arena_markers
 from swarm_world.timing import crossed

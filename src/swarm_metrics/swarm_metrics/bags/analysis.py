@@ -20,7 +20,7 @@ import numpy as np
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
-from swarm_metrics.bag_reader import BagError, EpisodeBag
+from swarm_metrics.bags.reader import BagError, EpisodeBag
 from swarm_metrics.metrics import MetricsParams, metric_names, sample_field
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams

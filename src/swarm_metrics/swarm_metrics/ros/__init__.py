@@ -1,0 +1,1 @@
+"""The metrics' ROS adapter: the metrics node."""
