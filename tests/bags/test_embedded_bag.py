@@ -22,11 +22,11 @@ from rosbags.rosbag2 import Reader
 
 from mona_controller import topics
 from swarm_metrics.bags.reader import read_custom_data, read_episode_bag
-from swarm_metrics.bags.writer import TYPESTORE
 from swarm_metrics.ros.metrics_node import MetricsNodeParams
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.outputs.bag import TOPICS, BagOptions, record_episode
+from swarm_world.messages.cdr import TYPESTORE
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import CONFIG, SwarmRun  # noqa: E402

@@ -41,9 +41,10 @@ from mona_controller.contract import (
     SOURCES,
     STATUS,
 )
-from swarm_metrics.bags.writer import CUSTOM_PREFIX, TYPESTORE
+from swarm_metrics.bags.writer import CUSTOM_PREFIX
 from swarm_world.frames import poses_from_rows
 from swarm_world.messages import markers as arena_markers
+from swarm_world.messages.cdr import TYPESTORE
 from swarm_world.timing import crossed
 
 MAGIC = b'\x89MCAP0\r\n'

@@ -40,7 +40,8 @@ from swarm_metrics.bags.reader import (
     find_mcap,
     read_custom_data,
 )
-from swarm_metrics.bags.writer import CUSTOM_PREFIX, TYPESTORE, EpisodeBagWriter
+from swarm_metrics.bags.writer import CUSTOM_PREFIX, EpisodeBagWriter
+from swarm_world.messages.cdr import TYPESTORE
 
 T = TypeVar('T')
 SUFFIX = '_recovered'

@@ -35,12 +35,10 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
-from rosbags.typesys import Stores, get_typestore
 
 from mona_controller.topics import QoS, Topic
+from swarm_world.messages.cdr import TYPESTORE
 
-#: The message types every bag is written (and read) with.
-TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 #: Default sim time a chunk stays open: the most a SIGKILL can lose (s).
 CHUNK_PERIOD = 5.0
 #: Prefix of this project's keys in the rosbag2 ``custom_data``.

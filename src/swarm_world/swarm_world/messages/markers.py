@@ -14,7 +14,7 @@ time, as RViz and Foxglove take it), grey (:data:`COLOUR`), :data:`HEIGHT` tall:
 
 :func:`obstacle_markers` makes the markers; the world node
 (:func:`swarm_world.ros.world_messages.obstacle_markers`) and the embedded runner
-(:func:`swarm_metrics.world_cdr.obstacles_cdr`) build their messages from it, so both
+(:func:`swarm_world.messages.cdr.obstacles_cdr`) build their messages from it, so both
 publish and record the same. :func:`obstacles_from_markers` turns decoded markers (rclpy's,
 rosbags', mcap-ros2-support's: anything with the message's fields) back into shapes, for the
 videos.
@@ -33,7 +33,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable
 
-from mona_controller.contract import WORLD_FRAME
 from swarm_world.arena import Arena, Disc, Obstacle, Polygon, Rect
 
 NAMESPACE = 'obstacles'
@@ -41,7 +40,6 @@ NAMESPACE = 'obstacles'
 HEIGHT = 0.1
 #: RGBA of every obstacle: the grey the videos fill them with.
 COLOUR = (0.5, 0.5, 0.5, 1.0)
-FRAME = WORLD_FRAME
 #: visualization_msgs/Marker's type and action codes used here.
 CUBE, SPHERE, CYLINDER, TRIANGLE_LIST = 1, 2, 3, 11
 ADD = 0
@@ -50,6 +48,8 @@ SOURCES_NAMESPACE = 'sources'
 SOURCE_SIZE = 0.08
 #: RGBA of every source marker.
 SOURCE_COLOUR = (0.85, 0.0, 0.85, 1.0)
+#: The drawn height of a robot's cylinder marker (m) on /world/markers, in both runners.
+ROBOT_HEIGHT = 0.05
 #: RGBA per controller state (FOLLOW, AVOID, WAIT, TURN of mona_controller.controller): the
 #: robot markers' colours in both runners (/world/markers) and the videos'.
 STATE_COLOURS = ((0.20, 0.75, 0.25, 1.0),  # follow: green
