@@ -3,7 +3,8 @@
 Pure cores (no ROS): :mod:`.params` (the driver's options), :mod:`.calibration` (raw IR ADC
 to a range and back), :mod:`.wheels` (cmd_vel to the link's wheel commands, PWM back to
 speed), :mod:`.tracked` (:class:`~.tracked.TrackedWorld`: the world's cue and sensors at
-tracked poses), :mod:`.fleet` (each robot's link: telemetry, commands, faults). The adapter
-is :mod:`swarm_world.ros.driver_node`; the hardware-in-the-loop harness is
-:mod:`swarm_world.ros.hil`. docs/driver.md.
+tracked poses), :mod:`.fleet` (each robot's link: telemetry, commands, faults),
+:mod:`.emulation` (emulated robots: firmwares in simavr, their physics, links and tracker).
+The adapters are :mod:`swarm_world.ros.driver_node` and ``driver_hil``
+(:mod:`swarm_world.ros.hil`). docs/driver.md.
 """
