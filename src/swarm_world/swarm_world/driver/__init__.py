@@ -8,3 +8,16 @@ tracked poses), :mod:`.fleet` (each robot's link: telemetry, commands, faults),
 The adapters are :mod:`swarm_world.ros.driver_node` and ``driver_hil``
 (:mod:`swarm_world.ros.hil`). docs/driver.md.
 """
+
+from mona_controller.exports import lazy_exports
+
+_WHERE = {
+    **dict.fromkeys(('DriverParams', 'udp_address'), 'params'),
+    **dict.fromkeys(('CalibrationError', 'IrCalibration'), 'calibration'),
+    **dict.fromkeys(('pwm_to_permille', 'to_permille', 'twist_to_wheels'), 'wheels'),
+    'TrackedWorld': 'tracked',
+    'Fleet': 'fleet',
+    **dict.fromkeys(('EmulatedArena', 'Firmware', 'build_images'), 'emulation'),
+}
+__all__ = sorted(_WHERE)
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -1,1 +1,18 @@
-"""What a simulated Mona senses and how its commands reach its wheels (pure: no ROS)."""
+"""What a simulated Mona senses and how its commands reach its wheels (pure: no ROS).
+
+``sensors`` (the ground sensors and the IR ring: compiled kernels, cell lists), ``transfer``
+(what a ground sensor reads on a cue value), ``noise`` (counter-based sensor and wheel noise
+streams), ``delay`` (the command latency). Importing the package imports none of them.
+"""
+
+from mona_controller.exports import lazy_exports
+
+_WHERE = {
+    **dict.fromkeys(('ground_readings', 'heading_trig', 'proximity', 'proximity_many',
+                     'sensor_geometry'), 'sensors'),
+    **dict.fromkeys(('transfer_table', 'webots_reading'), 'transfer'),
+    'NoiseLevels': 'noise',
+    'CommandDelay': 'delay',
+}
+__all__ = sorted(_WHERE)
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)
