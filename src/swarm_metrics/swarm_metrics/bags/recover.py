@@ -92,7 +92,7 @@ class RecoveryReport:
 
     def summary(self) -> str:
         """One paragraph for the user: what was kept, then exactly what was lost."""
-        span = ('' if self.first_ns is None else
+        span = ('' if self.first_ns is None or self.last_ns is None else
                 f', log time {self.first_ns / 1e9:.3f} to {self.last_ns / 1e9:.3f} s')
         text = (f'recovered {self.messages} messages on {len(self.topics)} topics{span} from '
                 f'{self.source} into {self.target}')

@@ -26,6 +26,7 @@ from pathlib import Path
 from types import TracebackType
 
 from rosbags.interfaces import (
+    Connection,
     Qos,
     QosDurability,
     QosHistory,
@@ -102,7 +103,7 @@ class EpisodeBagWriter:
         self.chunk_period_ns = round(chunk_period * 1e9)
         self._writer = _Rosbag2Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        self._connections = {}
+        self._connections: dict[str, Connection] = {}
         self._chunk_start_ns: int | None = None
         self.messages = 0
         self._writer.open()
@@ -157,8 +158,8 @@ class EpisodeBagWriter:
 
     def flush(self) -> None:
         """End the open chunk and hand it to the operating system (it survives a SIGKILL)."""
-        storage = self._writer.storage
-        if storage is not None and storage.chunk.bio.tell():
+        storage = self._writer.storage  # checked in __init__: a _CheckedMcapWriter
+        if isinstance(storage, _CheckedMcapWriter) and storage.chunk.bio.tell():
             storage.close_chunk()
         self._chunk_start_ns = None
 

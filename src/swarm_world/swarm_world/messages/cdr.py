@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import json
 import struct
+from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
@@ -131,7 +132,8 @@ def states_cdr(states: np.ndarray) -> bytes:
 
 def states_from_cdr(data: bytes) -> np.ndarray:
     """The states of a ``/world/robot_states`` message."""
-    return np.asarray(TYPESTORE.deserialize_cdr(data, UINT8_ARRAY).data, dtype=np.uint8)
+    message: Any = TYPESTORE.deserialize_cdr(data, UINT8_ARRAY)
+    return np.asarray(message.data, dtype=np.uint8)
 
 
 def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):

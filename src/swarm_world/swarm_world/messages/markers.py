@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable
+from typing import Any
 
 from swarm_world.arena import Arena, Disc, Obstacle, Polygon, Rect
 
@@ -103,7 +104,7 @@ def prism(vertices: tuple[tuple[float, float], ...]) -> tuple[Point, ...]:
     return tuple(points)
 
 
-def obstacles_from_markers(markers: Iterable[object]) -> tuple[Obstacle, ...]:
+def obstacles_from_markers(markers: Iterable[Any]) -> tuple[Obstacle, ...]:
     """The obstacles that decoded ``/world/obstacles`` markers show, in the markers' order.
 
     Markers of another namespace, another action than ADD or another type are left out. A
@@ -137,7 +138,7 @@ def source_markers(names: Iterable[str], positions: Iterable[Iterable[float]]
                  for k, (name, (x, y)) in enumerate(zip(names, positions)))
 
 
-def sources_from_markers(markers: Iterable[object]) -> tuple[tuple[str, float, float], ...]:
+def sources_from_markers(markers: Iterable[Any]) -> tuple[tuple[str, float, float], ...]:
     """(name, x, y) of each source that decoded ``/world/sources`` markers show, in order
     (markers of another namespace or action left out)."""
     return tuple((marker.text, marker.pose.position.x, marker.pose.position.y)
