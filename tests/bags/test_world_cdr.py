@@ -40,6 +40,7 @@ from swarm_world.ros.world_messages import (
     robot_states,
     source_markers,
 )
+from swarm_world.sensing.params import SensingParams
 
 pytestmark = pytest.mark.ros
 NS = 12_345_678_901
@@ -129,7 +130,7 @@ def test_source_markers_are_rclpy_bytes_and_move_with_the_sources():
     world = WorldParams(sources={'west': [0.8, 2.0, 0.5, 255.0], 'east': [2.1, 0.9, 0.6, 255.0]},
                         source_velocity={'west': [0.02, -0.01]},
                         source_path={'east': [0.03, 2.1, 1.9, 1.5, 1.4]})
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     msgtype = 'visualization_msgs/msg/MarkerArray'
     shown = []
     for t in (0.0, 7.5, 30.0):

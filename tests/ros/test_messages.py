@@ -29,6 +29,7 @@ from swarm_world.ros.world_messages import (
     poses_from_pose_array,
     robot_markers,
 )
+from swarm_world.sensing.params import SensingParams
 from swarm_world.world import World
 
 
@@ -39,7 +40,7 @@ def test_stamps_carry_integer_nanoseconds_exactly(ns):
 
 def test_readings_cross_the_messages_bit_for_bit():
     mona = MonaParams()
-    world = World(WorldParams(), mona)
+    world = World(WorldParams(), mona, SensingParams())
     world.reset(place_robots(60, 2.85, mona.body_radius, placement_rng(3)))
     readings = world.sense()
     assert np.isfinite(readings.ranges).any()  # some robots see something

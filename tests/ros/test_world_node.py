@@ -111,7 +111,7 @@ def start(executor, script: Script, tmp_path, **options) -> tuple[WorldNode, Scr
 
 def replay(world: WorldNode, commands: list[list[float]]) -> list[np.ndarray]:
     """The poses before each step and after the last one, from the core World itself."""
-    core = World(world.params, world.mona)
+    core = World(world.params, world.mona, world.sensing)
     core.reset(np.array(POSES))
     poses = [core.poses.copy()]
     for linear in commands:

@@ -71,7 +71,7 @@ class Renderer:
         self._layout()
         self.lut = (colormaps['viridis'](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
         # The cue, rebuilt from the episode's field by the cleaning record as time goes on.
-        self.field = CueField(setup.world, setup.mona)
+        self.field = CueField(setup.world, setup.mona, setup.sensing)
         self.cue = self.field.cue
         self._next_event = 0
         self._time_ns = -1

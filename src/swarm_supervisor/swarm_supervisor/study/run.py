@@ -20,6 +20,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from mona_controller.schema import moved_keys, relocate
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError
@@ -48,9 +49,9 @@ def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
 def _check_kept(folder: Path, config: SwarmConfig) -> None:
     """Refuse to mix a finished episode run with other parameters into this study. A
     parameter the episode's record lacks (one added to the schema since) counts as its
-    default: that is what the episode ran."""
+    default: that is what the episode ran; one that moved since is read at its new key."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
-    stored = record.get('parameters', {})
+    stored = relocate(record.get('parameters', {}), moved_keys(SwarmConfig), warn=False)
     expected = _expected_parameters(config)
     defaults = _expected_parameters(SwarmConfig())
     for section, values in expected.items():

@@ -30,7 +30,7 @@ import yaml
 
 from mona_controller.link.frame import START, size
 from mona_controller.mona import MonaParams
-from mona_controller.schema import ParameterError, from_mapping
+from mona_controller.schema import ParameterError, from_mapping, moved_keys, relocate
 from swarm_world.driver.calibration import IrCalibration
 from swarm_world.driver.params import DriverParams
 from swarm_world.driver.wheels import pwm_to_permille
@@ -223,7 +223,8 @@ def load_sections(path: Path) -> tuple[WorldParams, MonaParams, DriverParams]:
     """The world, mona and driver sections of a parameter file."""
     try:
         document = yaml.safe_load(path.read_text())
-        parameters = document['/**']['ros__parameters']
+        parameters = relocate(document['/**']['ros__parameters'],
+                              moved_keys(MonaParams, 'mona.'))
         return (from_mapping(WorldParams, parameters.get('world'), 'world.'),
                 from_mapping(MonaParams, parameters.get('mona'), 'mona.'),
                 from_mapping(DriverParams, parameters.get('driver'), 'driver.'))

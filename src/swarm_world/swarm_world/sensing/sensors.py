@@ -23,6 +23,7 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
+from swarm_world.sensing.params import SensingParams
 from swarm_world.sensing.transfer import transfer_table
 
 #: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
@@ -83,28 +84,28 @@ def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
     return out
 
 
-def sensor_geometry(mona: MonaParams) -> np.ndarray:
+def sensor_geometry(mona: MonaParams, sensing: SensingParams) -> np.ndarray:
     """[half the distance between the two ground sensors, their offset ahead of the axle] (m):
-    under the wheels unless ``mona.ground_baseline`` says otherwise."""
-    baseline = mona.ground_baseline or mona.wheel_separation
-    return np.array([baseline / 2, mona.ground_offset])
+    under the wheels unless ``sensing.ground_baseline`` says otherwise."""
+    baseline = sensing.ground_baseline or mona.wheel_separation
+    return np.array([baseline / 2, sensing.ground_offset])
 
 
 def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray, mona: MonaParams,
-                    noise: np.ndarray | None = None) -> np.ndarray:
+                    sensing: SensingParams, noise: np.ndarray | None = None) -> np.ndarray:
     """What the left and right ground sensors read, rounded: [N, 2] uint8 (left, right).
 
     Args:
         cue: the field the sensors see (the cue, or its footprint's sensed field).
-        mona: the sensors' geometry and transfer.
+        mona, sensing: the robot's wheels; the sensors' geometry and transfer.
         noise: [N, 2] reading units added to each value before it is rounded and clipped to
             0..255 (sensor noise; None: none).
     """
     out = np.empty((len(poses), 2), dtype=np.uint8)
     noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     poses = np.ascontiguousarray(poses, dtype=np.float64)
-    return ground_kernel(cue, cell_size, poses, heading_trig(poses), sensor_geometry(mona),
-                         transfer_table(mona), noise, out)
+    return ground_kernel(cue, cell_size, poses, heading_trig(poses),
+                         sensor_geometry(mona, sensing), transfer_table(sensing), noise, out)
 
 
 @numba.njit(cache=True)
