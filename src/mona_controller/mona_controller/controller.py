@@ -101,7 +101,9 @@ class ControllerParams:
         validate(self, 'controller.')
         if self.kind not in CONTROLLERS:  # the registry may grow at run time: checked here
             raise ParameterError(f'controller.kind = {self.kind!r} is not allowed: one of '
-                                 + ', '.join(repr(kind) for kind in CONTROLLERS))
+                                 + ', '.join(repr(kind) for kind in CONTROLLERS)
+                                 + '; a kind of your own is a plug-in: '
+                                 'docs/extending.md#a-controller')
         if self.turn_min > self.turn_max:
             raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
                                  f'controller.turn_max = {self.turn_max}')

@@ -82,6 +82,17 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
     return field.metadata.get('spec')
 
 
+#: The metadata of a field that is not a parameter (e.g. the plug-ins a config loaded): the
+#: schema neither builds it from a mapping, nor gives it in one, nor declares it.
+NOT_A_PARAMETER = {'parameter': False}
+
+
+def parameter_fields(section: Any) -> tuple[dataclasses.Field, ...]:
+    """The fields of a section (class or instance) that are parameters or sections."""
+    return tuple(field for field in dataclasses.fields(section)
+                 if field.metadata.get('parameter', True))
+
+
 def _coerce_keyed(name: str, value: Any) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     """A mapping of names to non-empty lists of scalars, as (name, values) pairs in order."""
     if isinstance(value, tuple):  # already normalised (a copy of a built section)
@@ -172,7 +183,7 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
     moved = moved_keys(cls) if not prefix else {}
     if moved:  # a whole parameter file: keys that moved go to their new sections
         mapping = relocate(mapping, moved)
-    known = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    known = {f.name: f for f in parameter_fields(cls)}
     unknown = sorted(set(mapping) - set(known))
     if unknown:
         new = getattr(cls, 'MOVED', {}).get(unknown[0])
@@ -204,7 +215,7 @@ def moved_keys(cls: type, prefix: str = '') -> dict[str, str]:
     section's ``prefix`` is where it sits in the file)."""
     found = {f'{prefix}{name}': new for name, new in getattr(cls, 'MOVED', {}).items()}
     found.update({old: f'{prefix}{name}' for name, old in getattr(cls, 'FORMERLY', {}).items()})
-    for field in dataclasses.fields(cls):
+    for field in parameter_fields(cls):
         factory = field.default_factory
         if spec_of(field) is None and callable(factory):
             found.update(moved_keys(type(factory()), f'{prefix}{field.name}.'))
@@ -250,7 +261,7 @@ def moved_key(cls: type, key: str) -> str:
 def to_mapping(section: Any) -> dict[str, Any]:
     """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
     out: dict[str, Any] = {}
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         value = getattr(section, field.name)
         spec = spec_of(field)
         if spec is None:
@@ -297,7 +308,7 @@ def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') ->
 
 def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
     """Every leaf field of an instance as (dotted name, value, spec)."""
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         spec = spec_of(field)
         value = getattr(section, field.name)
         if spec is None:

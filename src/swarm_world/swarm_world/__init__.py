@@ -1,11 +1,12 @@
 """The simulated arena of a Mona swarm: the world engine both runners step, and its parts.
 
 The modules of this package are the engine (pure: no ROS): ``params`` (the world's
-parameters), ``arena`` (walls and obstacles), ``sources`` and ``cue``, ``transport`` and
-``field`` (the cue and every change to it), ``physics``, ``placement``, ``world``
-(:class:`World`: reset / sense / step; :class:`WorldBatch`), ``lockstep`` (the rounds with the
-controllers), ``timing``, ``frames`` and ``reference`` (plain-Python references beside the
-compiled kernels). Sub-packages, each with one job:
+parameters), ``arena`` (walls and obstacles), ``layouts`` (obstacle layouts by name),
+``sources`` and ``cue``, ``transport`` and ``field`` (the cue and every change to it),
+``physics``, ``placement``, ``world`` (:class:`World`: reset / sense / step;
+:class:`WorldBatch`), ``lockstep`` (the rounds with the controllers), ``timing``, ``frames``
+and ``reference`` (plain-Python references beside the compiled kernels). Sub-packages,
+each with one job:
 
 - ``sensing``: what a simulated Mona senses and how its commands reach its wheels;
 - ``messages``: the world's messages without ROS (marker data, cue maps, CDR bytes);
@@ -22,6 +23,7 @@ _WHERE = {
     **dict.fromkeys(('Readings', 'World', 'WorldBatch'), 'world'),
     **dict.fromkeys(('WorldNodeParams', 'WorldParams'), 'params'),
     **dict.fromkeys(('Arena', 'Disc', 'Obstacle', 'Polygon', 'Rect'), 'arena'),
+    **dict.fromkeys(('LAYOUTS', 'register_layout'), 'layouts'),
     'Source': 'sources',
     **dict.fromkeys(('CueField', 'initial_cue'), 'field'),
     **dict.fromkeys(('Physics', 'PhysicsBatch'), 'physics'),

@@ -13,8 +13,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mona_controller.schema import moved_keys, relocate
-from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config
+from mona_controller.schema import ParameterError, moved_keys, relocate
+from swarm_supervisor.config import SOURCE_CONFIG, SwarmConfig, load_config, shipped
 
 #: The parameters of the sensing and encounter chain, by dotted key.
 MODEL_CHAIN: tuple[str, ...] = (
@@ -26,8 +26,14 @@ MODEL_CHAIN: tuple[str, ...] = (
     'sensing.wall_margin', 'sensing.command_latency', 'world.cell_size', 'world.cleaning',
     'world.control_steps', 'controller.turn_at',
 )
-#: The shipped profiles (in the source tree).
-PROFILES_DIR = DEFAULT_CONFIG.parent / 'profiles'
+#: The shipped profiles (in the source tree; an installed package has its copy:
+#: :func:`profiles_dir`).
+PROFILES_DIR = SOURCE_CONFIG / 'profiles'
+
+
+def profiles_dir() -> Path:
+    """The shipped profiles' folder, in the source tree or installed."""
+    return shipped(PROFILES_DIR.name)
 
 
 def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
@@ -45,15 +51,20 @@ def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
     return values
 
 
-def shipped_profiles(folder: Path = PROFILES_DIR) -> dict[str, dict[str, str]]:
-    """Each profile file's name -> its chain (none if the folder is not there)."""
+def shipped_profiles(folder: Path | None = None) -> dict[str, dict[str, str]]:
+    """Each profile file's name -> its chain (none if the folder is not there; default the
+    shipped folder, :func:`profiles_dir`)."""
+    try:
+        folder = profiles_dir() if folder is None else folder
+    except ParameterError:
+        return {}
     if not folder.is_dir():
         return {}
     return {path.stem: chain_of(load_config(path).to_dict())
             for path in sorted(folder.glob('*.yaml'))}
 
 
-def describe(records: Sequence[Mapping[str, Any]], folder: Path = PROFILES_DIR) -> str:
+def describe(records: Sequence[Mapping[str, Any]], folder: Path | None = None) -> str:
     """One line for report.md: the profile the episodes ran, and how it departs from the
     idealised default (the first episode's parameters; report.md warns separately when
     parameters differ between episodes)."""

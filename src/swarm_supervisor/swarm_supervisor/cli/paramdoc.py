@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from mona_controller.schema import spec_of
+from mona_controller.schema import parameter_fields, spec_of
 from swarm_supervisor.config import SwarmConfig
 
 
@@ -28,9 +28,13 @@ def render() -> str:
              '`ros_ws/config/mona_swarm.yaml` under `/**: ros__parameters:`; the nodes take the',
              'same keys as ROS parameters (dotted, e.g. `controller.alpha`). Ranges are',
              'inclusive; a value outside its range, of the wrong type, or an unknown key stops',
-             'the run at start-up with the key named.', '']
+             'the run at start-up with the key named.', '',
+             'Beside the sections, `plugins:` lists plug-in files (Python modules that register',
+             'metrics, controller kinds or obstacle layouts), each path absolute or relative to',
+             'the parameter file; they are loaded before the parameters are checked',
+             '([extending.md](extending.md)).', '']
     config = SwarmConfig()
-    for section in dataclasses.fields(SwarmConfig):
+    for section in parameter_fields(SwarmConfig):
         instance = getattr(config, section.name)
         text = ' '.join((type(instance).__doc__ or '').split())
         formerly = sorted({old.rpartition('.')[0] for old in

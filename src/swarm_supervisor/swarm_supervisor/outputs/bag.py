@@ -148,7 +148,7 @@ class BagRecorder(EpisodeObserver):
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict())
+            parameters=config.to_dict(), plugins=tuple(config.plugin_records()))
         try:
             # The world node's latched scenery reaches the metrics node before any episode.
             self.recorder.obstacles(obstacles_cdr(world.arena))
