@@ -220,6 +220,16 @@ def _scratch(n, k):  # pragma: no cover - jitted
             np.empty(k, dtype=np.bool_))
 
 
+@numba.njit(cache=True)
+def _batch_scratch(bounds, k):  # pragma: no cover - jitted
+    """:func:`_scratch` for the largest arena of a batch (arena e holds robots
+    ``bounds[e]:bounds[e + 1]``), shared by all of them."""
+    most = 0
+    for e in range(bounds.shape[0] - 1):
+        most = max(most, bounds[e + 1] - bounds[e])
+    return _scratch(most, k)
+
+
 # The rows of _cast's per-beam work array.
 _UX, _UY, _AX, _AY, _HIT, _COS_BEARING, _SIN_BEARING = range(7)
 _BEAM_ROWS = 7
@@ -429,10 +439,7 @@ def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other and their own
     # arena's obstacles, by the one-arena kernel on their own rows: the same arithmetic, so
     # the same readings, as alone.
-    most = 0
-    for e in range(bounds.shape[0] - 1):
-        most = max(most, bounds[e + 1] - bounds[e])
-    work = _scratch(most, bearings.shape[1])
+    work = _batch_scratch(bounds, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         olo, ohi = obstacle_bounds[e], obstacle_bounds[e + 1]
@@ -447,10 +454,7 @@ def _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_r
                                 arena_side, ranges, is_robot):  # pragma: no cover - jitted
     # _proximity_many_kernel when no arena has obstacles: five arrays fewer to pass, and no
     # obstacle arrays to slice per arena.
-    most = 0
-    for e in range(bounds.shape[0] - 1):
-        most = max(most, bounds[e + 1] - bounds[e])
-    work = _scratch(most, bearings.shape[1])
+    work = _batch_scratch(bounds, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         _cast(poses[lo:hi], trig[lo:hi], body_radius[e], bearings[e], ir_range[e],
