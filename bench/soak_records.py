@@ -1,7 +1,7 @@
 """Soak the node system's records: run scripts/swarm.sh again and again and check every bag.
 
 For each run: the script's exit status, and for each episode whether its bag passes every
-completeness check (swarm_metrics.completeness) and whether its recomputed metrics equal the
+completeness check (swarm_metrics.bags.completeness) and whether its recomputed metrics equal the
 embedded runner's for the same seed, exactly. Not a test: it prints a table to quote.
 
     .venv/bin/python bench/soak_records.py --runs 10 --population 50 --episodes 3 --duration 400
@@ -19,8 +19,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from swarm_metrics.bag_reader import BagError, read_episode_bag
-from swarm_metrics.completeness import check_bag
+from swarm_metrics.bags.completeness import check_bag
+from swarm_metrics.bags.reader import BagError, read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.system.processes import busy_cores

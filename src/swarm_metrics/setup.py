@@ -21,7 +21,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'metrics_node = swarm_metrics.metrics_node:main',
+            'metrics_node = swarm_metrics.ros.metrics_node:main',
         ],
     },
 )

@@ -10,7 +10,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
     ],
-    install_requires=['numpy', 'pymunk', 'numba', 'mona_controller'],
+    install_requires=['numpy', 'pymunk', 'numba', 'rosbags', 'mona_controller'],
     zip_safe=True,
     maintainer='Mona swarm developers',
     maintainer_email='mona-swarm@example.org',
@@ -20,9 +20,9 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'world_node = swarm_world.world_node:main',
-            'driver_node = swarm_world.driver.driver_node:main',
-            'driver_hil = swarm_world.driver.hil:main',
+            'world_node = swarm_world.ros.world_node:main',
+            'driver_node = swarm_world.ros.driver_node:main',
+            'driver_hil = swarm_world.ros.hil:main',
         ],
     },
 )

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter, offered_qos
-from swarm_metrics.world_cdr import sources_cdr, states_cdr
+from swarm_metrics.bags.writer import EpisodeBagWriter, offered_qos
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
+from swarm_world.messages.cdr import TYPESTORE, sources_cdr, states_cdr
 from swarm_world.timing import crossed
 
 TYPES = TYPESTORE.types

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from swarm_metrics import completeness
-from swarm_metrics.bag_reader import read_episode_bag
-from swarm_metrics.completeness import Finding
+from swarm_metrics.bags import completeness
+from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor import study
 from swarm_supervisor.cli import main

@@ -20,13 +20,13 @@ from std_msgs.msg import Bool, Float64, String
 
 from mona_controller import qos
 from mona_controller.messages import fill_twist, ground_image
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import find_mcap, read_episode_bag
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.reader import find_mcap, read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.episode import Episode
 from swarm_supervisor.engine.runner import run_episode
+from swarm_world.ros.world_messages import PoseArrayFiller, cue_image
 from swarm_world.timing import crossed
-from swarm_world.world_messages import PoseArrayFiller, cue_image
 
 from bagtools import announcement
 

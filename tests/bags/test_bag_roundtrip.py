@@ -8,12 +8,13 @@ import pytest
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import BagError, find_mcap, read_episode_bag
-from swarm_metrics.bag_writer import TYPESTORE, EpisodeBagWriter
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.reader import BagError, find_mcap, read_episode_bag
+from swarm_metrics.bags.writer import EpisodeBagWriter
 from swarm_supervisor import cli
 from swarm_supervisor.config import load_config
 from swarm_supervisor.outputs.episode_folder import read_metrics_csv, write_metrics_csv
+from swarm_world.messages.cdr import TYPESTORE
 
 from bagtools import TOPICS, embedded_episode_bag, string_cdr
 

@@ -4,7 +4,7 @@ metrics node records of a lockstep run of scripts/swarm.sh with the same seed.
 Same topics, types, offered QoS and custom_data; identical poses, the controllers' states,
 cleaning events, cue maps, sources and metrics, decoded once with rosbags and once with an
 independent decoder (mcap + mcap-ros2-support); also with moving leaks and with a command
-latency (``mona.command_latency``).
+latency (``sensing.command_latency``).
 """
 
 from __future__ import annotations
@@ -21,12 +21,12 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
 from mona_controller import topics
-from swarm_metrics.bag_reader import read_custom_data, read_episode_bag
-from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.metrics_node import MetricsNodeParams
+from swarm_metrics.bags.reader import read_custom_data, read_episode_bag
+from swarm_metrics.ros.metrics_node import MetricsNodeParams
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.outputs.bag import TOPICS, BagOptions, record_episode
+from swarm_world.messages.cdr import TYPESTORE
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
 from swarmrun import CONFIG, SwarmRun  # noqa: E402
@@ -218,7 +218,8 @@ def test_a_moving_leaking_field_records_the_same_bag_in_both_runners(leak_bags, 
 
 #: A radio link's timing (docs/model.md, "The real link"): commands reach the wheels 3 control
 #: steps of 2 world steps late, the real Monas' IR range.
-LATENCY = {'mona': {'command_latency': 3, 'ir_range': 0.02}, 'world': {'control_steps': 2}}
+LATENCY = {'mona': {'ir_range': 0.02}, 'sensing': {'command_latency': 3},
+           'world': {'control_steps': 2}}
 
 
 @pytest.fixture(scope='module')
@@ -246,10 +247,10 @@ def test_a_command_latency_records_the_same_bag_in_both_runners(latency_bags):
             [(t, plain(topic, m)) for t, m in node[topic]], topic
     assert len(node['/world/cleaning']) > 0
     parameters = json.loads(node['/episode'][0][1].data)['parameters']
-    assert parameters['mona']['command_latency'] == 3
+    assert parameters['sensing']['command_latency'] == 3
     # The latency took effect: without it the same episode moves otherwise.
     config = load_config(CONFIG).replace(
         mona={'ir_range': 0.02}, world={'control_steps': 2},
         episode={'population': POPULATION, 'duration': 12.0, 'seed': 2})
-    delayed = run_episode(config.replace(mona={'command_latency': 3}))
+    delayed = run_episode(config.replace(sensing={'command_latency': 3}))
     assert not np.array_equal(run_episode(config).final_poses, delayed.final_poses)

@@ -18,7 +18,7 @@ from mcap_ros2.decoder import DecoderFactory
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.media.video import OBSTACLE_FILL, Renderer, animate, read_record
 from swarm_supervisor.outputs.bag import record_episode
-from swarm_world.arena_markers import HEIGHT, obstacles_from_markers
+from swarm_world.messages.markers import HEIGHT, obstacles_from_markers
 
 #: One of each kind, clear of the source at the centre (docs/extending.md's example shapes).
 OBSTACLES = {'pillar': [1.0, 1.0, 0.12], 'wall': [2.2, 0.3, 2.3, 1.1],

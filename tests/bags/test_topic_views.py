@@ -16,7 +16,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from mona_controller import qos, topics
 from mona_controller.topics import TOPICS
 from swarm_metrics.metrics import metric_names
-from swarm_metrics.metrics_node import RECORDED, RECORDED_ALL, MetricsNode
+from swarm_metrics.ros.metrics_node import RECORDED, RECORDED_ALL, MetricsNode
 from swarm_supervisor.system.live_node import NODE_TOPICS, LiveNode
 
 pytestmark = pytest.mark.ros

@@ -1,4 +1,4 @@
-"""The world's messages built without ROS (swarm_metrics.world_cdr) against rclpy's own
+"""The world's messages built without ROS (swarm_world.messages.cdr) against rclpy's own
 serialization of the world node's messages: the same bytes, padding aside."""
 
 from __future__ import annotations
@@ -12,9 +12,11 @@ from std_msgs.msg import Float64, String
 from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.messages import set_stamp
 from mona_controller.mona import MonaParams
-from swarm_metrics.bag_writer import TYPESTORE
-from swarm_metrics.world_cdr import (
-    STATE_COLOURS,
+from swarm_supervisor.outputs.bag import status_json
+from swarm_world.arena import Arena, Disc, Polygon, Rect
+from swarm_world.field import CueField
+from swarm_world.messages.cdr import (
+    TYPESTORE,
     clock_cdr,
     cue_grid_cdr,
     cue_image_cdr,
@@ -27,12 +29,9 @@ from swarm_metrics.world_cdr import (
     states_from_cdr,
     string_cdr,
 )
-from swarm_supervisor.outputs.bag import status_json
-from swarm_world.arena import Arena, Disc, Polygon, Rect
-from swarm_world.arena_markers import SPHERE, sources_from_markers
-from swarm_world.field import CueField
+from swarm_world.messages.markers import SPHERE, STATE_COLOURS, sources_from_markers
 from swarm_world.params import WorldParams
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_grid,
     cue_image,
@@ -41,6 +40,7 @@ from swarm_world.world_messages import (
     robot_states,
     source_markers,
 )
+from swarm_world.sensing.params import SensingParams
 
 pytestmark = pytest.mark.ros
 NS = 12_345_678_901
@@ -76,7 +76,8 @@ def test_small_messages_are_rclpy_bytes():
     set_stamp(clock.clock, NS)
     assert clock_cdr(NS) == bytes(serialize_message(clock))
     assert string_cdr('{"é": 1}') == bytes(serialize_message(String(data='{"é": 1}')))
-    assert float64_cdr(0.1) == bytes(serialize_message(Float64(data=0.1)))
+    for value in (0.1, 0.0, -1.5, 255.0, float('inf')):
+        assert float64_cdr(value) == bytes(serialize_message(Float64(data=value)))
     states = np.array([0, 1, 2, 3, 2], dtype=np.uint8)
     assert states_from_cdr(states_cdr(states)).tolist() == states.tolist()
     poses = np.random.default_rng(5).uniform(0, 2.85, (5, 3))
@@ -129,7 +130,7 @@ def test_source_markers_are_rclpy_bytes_and_move_with_the_sources():
     world = WorldParams(sources={'west': [0.8, 2.0, 0.5, 255.0], 'east': [2.1, 0.9, 0.6, 255.0]},
                         source_velocity={'west': [0.02, -0.01]},
                         source_path={'east': [0.03, 2.1, 1.9, 1.5, 1.4]})
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     msgtype = 'visualization_msgs/msg/MarkerArray'
     shown = []
     for t in (0.0, 7.5, 30.0):

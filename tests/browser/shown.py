@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 from checks import Expected, plots_of
 
-from swarm_metrics.bag_reader import McapScan, cue_of, decode, find_mcap, poses_of
-from swarm_metrics.world_cdr import states_from_cdr
-from swarm_world.arena_markers import sources_from_markers
+from swarm_metrics.bags.reader import McapScan, cue_of, decode, find_mcap, poses_of
+from swarm_world.messages.cdr import states_from_cdr
+from swarm_world.messages.markers import sources_from_markers
 
 
 def latest(bag: Path, topic: str, at_ns: int):

@@ -16,8 +16,12 @@ from swarm_world.driver.wheels import pwm_to_permille, to_permille, twist_to_whe
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots, placement_rng
-from swarm_world.sensors import proximity
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import proximity
 from swarm_world.world import World
+
+#: The simulator's sensor model of the paper (the virtual ground sensors' at tracked poses).
+SENSING = SensingParams()
 
 CASES = {
     'paper': {},
@@ -31,7 +35,7 @@ def test_ground_and_cleaning_at_tracked_poses_are_the_worlds(overrides):
     params, mona = WorldParams(**overrides), MonaParams()
     n = 12
     poses = place_robots(n, params.arena_side, mona.body_radius, placement_rng(4))
-    world, tracked = World(params, mona), TrackedWorld(params, mona)
+    world, tracked = World(params, mona, SENSING), TrackedWorld(params, mona, SENSING)
     world.reset(poses, seed=4)
     tracked.reset(poses, seed=4)
     rng = np.random.default_rng(0)
@@ -50,7 +54,7 @@ def test_ground_and_cleaning_at_tracked_poses_are_the_worlds(overrides):
     np.testing.assert_array_equal(tracked.cue, world.cue)
     assert (tracked.cue < world.initial_cue).any()  # the robots cleaned
     # The cleaning record rebuilds the cue bit for bit, as a bag's analysis does.
-    replica = CueField(params, mona)
+    replica = CueField(params, mona, SENSING)
     for time_ns, cleaned in record:
         replica.clean_at(time_ns, cleaned)
     replica.advance_to(tracked.time_ns)
@@ -60,7 +64,7 @@ def test_ground_and_cleaning_at_tracked_poses_are_the_worlds(overrides):
 def test_a_held_robot_is_stopped_and_does_not_clean():
     params, mona = WorldParams(), MonaParams()
     poses = np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]])
-    tracked = TrackedWorld(params, mona)
+    tracked = TrackedWorld(params, mona, SENSING)
     tracked.reset(poses)
     tracked.held = np.array([False, True])
     for _ in range(40):  # past the first cleaning tick at 1 s
@@ -73,7 +77,7 @@ def test_a_held_robot_is_stopped_and_does_not_clean():
 
 
 def test_a_tracker_dropout_keeps_the_last_pose_and_headings_are_wrapped():
-    tracked = TrackedWorld(WorldParams(), MonaParams())
+    tracked = TrackedWorld(WorldParams(), MonaParams(), SENSING)
     tracked.reset(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]))
     valid = tracked.track(np.array([[1.5, 1.2, 4.0], [np.nan, np.nan, np.nan]]))
     assert valid.tolist() == [True, False]
@@ -90,7 +94,7 @@ def test_robot_and_wall_are_told_apart_from_the_tracked_poses():
         [0.06, 2.0, np.pi],  # 2: faces the west wall, 2 cm away
         [2.0, 0.5, 0.0],  # 3: nothing near
     ])
-    tracked = TrackedWorld(params, mona)
+    tracked = TrackedWorld(params, mona, SENSING)
     tracked.reset(poses)
     ranges, is_robot = proximity(poses, mona.body_radius, mona.ir_bearings(), mona.ir_range,
                                  params.arena_side)

@@ -21,9 +21,9 @@ from mona_controller import qos
 from mona_controller.contract import Announcement, WorldStatus
 from mona_controller.link.frame import Decoder, Frame
 from mona_controller.link.payloads import COMMAND, TELEMETRY, Command, Telemetry
-from swarm_world.driver.driver_node import TRACKER_QOS, DriverNode
-from swarm_world.driver.hil import build_images
-from swarm_world.world_messages import PoseArrayFiller
+from swarm_world.driver.emulation import build_images
+from swarm_world.ros.driver_node import TRACKER_QOS, DriverNode
+from swarm_world.ros.world_messages import PoseArrayFiller
 
 from harness import REPO
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 import yaml
 
-from swarm_metrics.bag_reader import read_episode_bag
-from swarm_metrics.completeness import check_bag
+from swarm_metrics.bags.completeness import check_bag
+from swarm_metrics.bags.reader import read_episode_bag
 
 from harness import REPO
 

@@ -54,8 +54,8 @@ def _leaks_noise_footprint() -> list[SwarmConfig]:
                'source_velocity': {'west': [0.002, -0.001]},
                'source_path': {'east': [0.003, 2.1, 1.9, 1.5, 1.4]},
                'diffusion': 1e-4, 'half_life': 500.0, 'cleaning': 'literal'},
-        mona={'ground_noise': 5.0, 'ir_miss': 0.1, 'wheel_noise': 0.05,
-              'ground_footprint': 0.03})]
+        sensing={'ground_noise': 5.0, 'ir_miss': 0.1, 'wheel_noise': 0.05,
+                 'ground_footprint': 0.03})]
 
 
 def _mixed_batch() -> list[SwarmConfig]:
@@ -66,7 +66,7 @@ def _mixed_batch() -> list[SwarmConfig]:
         base.replace(episode={'population': 30, 'seed': 2},
                      controller={'alpha': 3.0, 'avoid': 'random-turn'}),
         base.replace(episode={'population': 5, 'seed': 4, 'duration': 90.0},
-                     mona={'ir_range': 0.05, 'wheel_noise': 0.1}),
+                     mona={'ir_range': 0.05}, sensing={'wheel_noise': 0.1}),
         base.replace(episode={'population': 50, 'seed': 6}),
     ]
 

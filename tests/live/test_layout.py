@@ -12,7 +12,7 @@ from mona_controller.topics import metric_topic
 from swarm_metrics.metrics import PAPER_METRICS, plotted
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.outputs.bag import TOPICS
-from swarm_world.arena_markers import SOURCE_COLOUR
+from swarm_world.messages.markers import SOURCE_COLOUR
 
 LAYOUT = Path(__file__).parents[2] / 'ros_ws' / 'config' / 'foxglove_layout.json'
 #: Topics only the live view carries (a bag records them only with record_all): the 3D

@@ -18,11 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swarm_metrics.bag_reader import read_episode_bag
-from swarm_metrics.world_cdr import STATE_COLOURS
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.media.recorded import read_record
-from swarm_world.arena_markers import obstacles_from_markers
+from swarm_world.messages.markers import STATE_COLOURS, obstacles_from_markers
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.system.live_node import NODE_TOPICS
+from swarm_world.messages.markers import STATE_COLOURS
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 

@@ -12,8 +12,8 @@ import pytest
 import websockets
 
 from mona_controller.contract import CLOCK, POSES
-from swarm_metrics.world_cdr import clock_cdr, pose_array_cdr
 from swarm_supervisor.media.live import LiveServer
+from swarm_world.messages.cdr import clock_cdr, pose_array_cdr
 
 from foxclient import LEGACY_SUBPROTOCOL, SUBPROTOCOL, Capture, capture
 

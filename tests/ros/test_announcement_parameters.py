@@ -92,7 +92,7 @@ def test_the_shipped_keys_alone_are_accepted_and_one_differing_value_is_refused(
         pair, spin_until, executor):
     controller, world = pair
     sections = shipped_sections()
-    assert 'ground_noise' not in sections['mona']  # the file leaves keys at their defaults
+    assert 'turn_at' not in sections['controller']  # the file leaves keys at their defaults
     world.announce(0, START_NS, sections)
     spin_until(lambda: controller.episode is not None, what='announcement 0')
     world.send(START_NS)

@@ -13,7 +13,7 @@ from mona_controller.controller_node import ControllerNode
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.system.supervisor_node import RUN_FILE, Supervisor
-from swarm_world.world_node import FINAL_FILE, WorldNode
+from swarm_world.ros.world_node import FINAL_FILE, WorldNode
 
 pytestmark = pytest.mark.ros
 
@@ -61,24 +61,24 @@ def test_two_episodes_match_the_embedded_runner(executor, spin_until, tmp_path):
 MODELS = {
     # The sweepable decisions and the noise streams, drawn in the world from the seed.
     'decisions-and-noise': {
-        'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
+        'mona.ir_range': 0.06, 'mona.ir_count': 7, 'sensing.ground_footprint': 0.03,
         'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
         'world.cleaning': 'literal',
-        'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05},
+        'sensing.ground_noise': 6.0, 'sensing.ir_miss': 0.1, 'sensing.wheel_noise': 0.05},
     # The controllers answer every third step; the world holds their commands between.
-    'control-period': {'world.control_steps': 3, 'mona.ground_noise': 3.0},
+    'control-period': {'world.control_steps': 3, 'sensing.ground_noise': 3.0},
     # The cleaning as a Webots Display blends it, on a raster of its 3.9 mm pixels.
     'display-cleaning': {'world.cleaning': 'blend', 'world.cell_size': 0.00390625},
     # Ground sensors as Webots infra-red sensors, 6 cm apart and 3 cm ahead of the axle.
-    'webots-ground': {'mona.ground_transfer': 'webots', 'mona.ground_baseline': 0.06,
-                      'mona.ground_offset': 0.03},
+    'webots-ground': {'sensing.ground_transfer': 'webots', 'sensing.ground_baseline': 0.06,
+                      'sensing.ground_offset': 0.03},
     # A dark body seen near contact, robot or wall told by place.
-    'encounter-model': {'mona.robot_detection': 'position', 'mona.ir_robot_factor': 0.3,
-                        'mona.ir_miss': 0.1},
+    'encounter-model': {'sensing.robot_detection': 'position', 'sensing.ir_robot_factor': 0.3,
+                        'sensing.ir_miss': 0.1},
     # Turns in place at the robot's own speed.
     'turn-at-speed': {'controller.turn_at': 'speed', 'controller.wait_max': 5.0},
     # A radio link's delay: each command reaches the wheels 3 control steps (of 2) later.
-    'command-latency': {'mona.command_latency': 3, 'world.control_steps': 2},
+    'command-latency': {'sensing.command_latency': 3, 'world.control_steps': 2},
 }
 
 
@@ -128,7 +128,7 @@ def test_an_announcement_is_compared_as_parameters_naming_the_keys(executor, tmp
     world = WorldNode(context=executor.context,
                       parameter_overrides=[Parameter('output_dir', value=str(tmp_path))])
     try:
-        shipped = {'body_radius': 0.04, 'ir_count': 5}  # ground_noise etc. left out
+        shipped = {'body_radius': 0.04, 'ir_count': 5}  # ir_range etc. left out
         same = Announcement(episode=0, seed=1, population=2, duration=1.0,
                             parameters={'mona': shipped, 'world': {'arena_side': 2.85}})
         assert world._check_announcement(same) == ''
@@ -176,7 +176,7 @@ def test_obstacles_reach_the_metrics_nodes_bag_as_the_embedded_runner_records_th
     """A lockstep episode among obstacles, recorded by the metrics node in this process: its
     bag holds the world's /world/obstacles once, at the episode's start, equal to the embedded
     runner's bag, and the episodes themselves are equal."""
-    from swarm_metrics.metrics_node import MetricsNode
+    from swarm_metrics.ros.metrics_node import MetricsNode
     from swarm_supervisor.outputs.bag import record_episode
 
     population, duration, seed = 8, 3.0, 2

@@ -1,4 +1,4 @@
-"""The message conversions of mona_controller.messages and swarm_world.world_messages
+"""The message conversions of mona_controller.messages and swarm_world.ros.world_messages
 (message types only, no DDS)."""
 
 from __future__ import annotations
@@ -21,8 +21,7 @@ from mona_controller.messages import (
 from mona_controller.mona import MonaParams
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots, placement_rng
-from swarm_world.world import World
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_from_image,
     cue_grid,
@@ -30,6 +29,8 @@ from swarm_world.world_messages import (
     poses_from_pose_array,
     robot_markers,
 )
+from swarm_world.sensing.params import SensingParams
+from swarm_world.world import World
 
 
 @given(st.integers(0, 2**62))
@@ -39,7 +40,7 @@ def test_stamps_carry_integer_nanoseconds_exactly(ns):
 
 def test_readings_cross_the_messages_bit_for_bit():
     mona = MonaParams()
-    world = World(WorldParams(), mona)
+    world = World(WorldParams(), mona, SensingParams())
     world.reset(place_robots(60, 2.85, mona.body_radius, placement_rng(3)))
     readings = world.sense()
     assert np.isfinite(readings.ranges).any()  # some robots see something

@@ -17,9 +17,9 @@ from std_msgs.msg import Bool, String
 
 from mona_controller import qos
 from mona_controller.messages import fill_twist, stamp_to_ns
+from swarm_world.ros.world_messages import poses_from_pose_array
+from swarm_world.ros.world_node import FINAL_FILE, WorldNode
 from swarm_world.world import World
-from swarm_world.world_messages import poses_from_pose_array
-from swarm_world.world_node import FINAL_FILE, WorldNode
 
 pytestmark = pytest.mark.ros
 
@@ -111,7 +111,7 @@ def start(executor, script: Script, tmp_path, **options) -> tuple[WorldNode, Scr
 
 def replay(world: WorldNode, commands: list[list[float]]) -> list[np.ndarray]:
     """The poses before each step and after the last one, from the core World itself."""
-    core = World(world.params, world.mona)
+    core = World(world.params, world.mona, world.sensing)
     core.reset(np.array(POSES))
     poses = [core.poses.copy()]
     for linear in commands:

@@ -7,7 +7,7 @@ from swarm_supervisor import outputs, study
 from swarm_supervisor.config import load_config
 
 TINY = {'populations': [3, 6], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3], 'duration': 12.0,
-        'snapshot_times': [0.0, 4.0, 12.0], 'factors': {'mona.ir_miss': [0.0, 0.1]}}
+        'snapshot_times': [0.0, 4.0, 12.0], 'factors': {'sensing.ir_miss': [0.0, 0.1]}}
 COMPARED = (outputs.METRICS_FILE, outputs.SNAPSHOTS_FILE, outputs.FINAL_PNG)
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import imageio_ffmpeg
 
-from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_supervisor import outputs, study
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml

@@ -155,7 +155,7 @@ def test_sweep_resumes_and_refuses_another_design(swept, tmp_path):
 
 @pytest.mark.parametrize('key, levels', [
     ('mona.ir_range', (0.015, 0.06)), ('mona.ir_count', (3, 7)),
-    ('mona.ground_footprint', (0.03, 0.05)), ('mona.wheel_separation', (0.05, 0.08)),
+    ('sensing.ground_footprint', (0.03, 0.05)), ('mona.wheel_separation', (0.05, 0.08)),
     ('controller.avoid', ('random-turn',)), ('world.cleaning', ('literal',)),
     ('controller.turn_speed', (0.02, 0.08)), ('controller.alpha', (10.0,)),
 ])

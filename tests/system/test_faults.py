@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swarm_metrics.bag_reader import TruncatedBagError, read_episode_bag
+from swarm_metrics.bags.reader import TruncatedBagError, read_episode_bag
 
 from swarmrun import CONFIG, group_alive
 

@@ -18,8 +18,8 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
 

@@ -18,7 +18,7 @@ from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.outputs.episode_folder import read_metrics_csv

@@ -19,7 +19,8 @@ from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams
 from swarm_world.reference import check_ir, check_placement
-from swarm_world.sensors import proximity
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import proximity
 
 #: A few of each kind in the paper's arena, none over the paper's source at the centre.
 LAYOUT = {'pillar': ['disc', 0.9, 2.0, 0.15],
@@ -160,8 +161,9 @@ def test_obstacle_cue_clear_empties_the_cells_under_obstacles_only():
     assert np.array_equal(cleared[~under], bare[~under])
     # The pillar at (0.9, 2.0), radius 0.15: about pi 0.15^2 / 0.01^2 = 707 cells.
     assert abs(under.sum() - (707 + 10 * 80 + 1150)) < 100
-    assert CueField(params, MonaParams()).initial_mean < CueField(WorldParams(),
-                                                                  MonaParams()).initial_mean
+    mona, sensing = MonaParams(), SensingParams()
+    assert CueField(params, mona, sensing).initial_mean < \
+        CueField(WorldParams(), mona, sensing).initial_mean
     assert not params.paper_field and WorldParams(obstacles=LAYOUT).paper_field
 
 
@@ -279,7 +281,7 @@ def mixed_layouts() -> list[SwarmConfig]:
         base.replace(episode={'population': 20, 'seed': 3}, world={'obstacles': CROWDED}),
         base.replace(episode={'population': 12, 'seed': 1}),
         base.replace(episode={'population': 30, 'seed': 5, 'duration': 18.0},
-                     world={'obstacles': LAYOUT}, mona={'ir_miss': 0.1, 'wheel_noise': 0.05}),
+                     world={'obstacles': LAYOUT}, sensing={'ir_miss': 0.1, 'wheel_noise': 0.05}),
         base.replace(episode={'population': 25, 'seed': 2},
                      world={'obstacles': CROWDED, 'obstacle_cue': 'clear'},
                      controller={'speed': 0.04}),

@@ -1,4 +1,4 @@
-"""The arena's obstacles as /world/obstacles marker data (swarm_world.arena_markers): one
+"""The arena's obstacles as /world/obstacles marker data (swarm_world.messages.markers): one
 marker per obstacle, stable ids, the right kind, pose and size, and back to the shapes."""
 
 import math
@@ -7,9 +7,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from swarm_world import arena_markers
 from swarm_world.arena import Arena, Disc, Polygon, Rect
-from swarm_world.arena_markers import (
+from swarm_world.messages import markers as arena_markers
+from swarm_world.messages.markers import (
     CUBE,
     CYLINDER,
     HEIGHT,

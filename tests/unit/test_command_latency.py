@@ -1,4 +1,4 @@
-"""The command latency (``mona.command_latency``): a command drives the wheels and the cleaner
+"""The command latency (``sensing.command_latency``): a command drives the wheels and the cleaner
 L control steps after the readings it answers; 0 is the engine as it was, and a robot's delay
 is its own in any batch."""
 
@@ -9,8 +9,9 @@ from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine import run_batch, run_episode
-from swarm_world.delay import CommandDelay
 from swarm_world.params import WorldParams
+from swarm_world.sensing.delay import CommandDelay
+from swarm_world.sensing.params import SensingParams
 from swarm_world.world import World
 
 POSES = np.array([[0.5, 0.5, 0.0], [2.0, 2.0, 1.5], [1.4, 1.4, -2.0]])
@@ -37,8 +38,9 @@ def drive(world: World, sequence) -> tuple[list[np.ndarray], list[np.ndarray]]:
 @pytest.mark.parametrize('latency, control_steps', [(1, 1), (3, 1), (2, 3)])
 def test_a_command_drives_the_wheels_latency_control_steps_later(latency, control_steps):
     params = WorldParams(control_steps=control_steps)
-    delayed = World(params, MonaParams(command_latency=latency, wheel_noise=0.05))
-    at_once = World(params, MonaParams(wheel_noise=0.05))  # same noise draws, step by step
+    delayed = World(params, MonaParams(), SensingParams(command_latency=latency, wheel_noise=0.05))
+    # The same noise draws, step by step.
+    at_once = World(params, MonaParams(), SensingParams(wheel_noise=0.05))
     sequence = commands(40, len(POSES))
     lag = latency * control_steps
     stop = (np.zeros(len(POSES)), np.zeros(len(POSES)), np.zeros(len(POSES), dtype=bool))
@@ -54,7 +56,7 @@ def test_a_command_drives_the_wheels_latency_control_steps_later(latency, contro
 
 
 def test_a_reset_empties_the_delay_line():
-    world = World(WorldParams(), MonaParams(command_latency=2))
+    world = World(WorldParams(), MonaParams(), SensingParams(command_latency=2))
     sequence = commands(5, len(POSES))
     first = drive(world, sequence)[0]
     again = drive(world, sequence)[0]  # drive() resets: nothing of the first episode is left
@@ -64,14 +66,14 @@ def test_a_reset_empties_the_delay_line():
 def test_the_delay_line_refuses_zero_steps_and_the_schema_a_negative_latency():
     with pytest.raises(ValueError, match='0 steps'):
         CommandDelay(0, 3)
-    with pytest.raises(ParameterError, match='mona.command_latency'):
-        MonaParams(command_latency=-1)
+    with pytest.raises(ParameterError, match='sensing.command_latency'):
+        SensingParams(command_latency=-1)
 
 
 def config(latency: int, **episode) -> SwarmConfig:
     return SwarmConfig().replace(
         episode={'population': 12, 'seed': 4, 'duration': 30.0, **episode},
-        mona={'command_latency': latency})
+        sensing={'command_latency': latency})
 
 
 def test_latency_changes_the_episode_and_zero_is_the_engine_as_it_was():

@@ -7,17 +7,25 @@ import math
 import numpy as np
 import pytest
 
-from mona_controller.mona import MonaParams
+from mona_controller.mona import SENSOR_MODEL, MonaParams
 from swarm_world.params import WorldParams
+from swarm_world.sensing.params import SensingParams
 from swarm_world.world import World
 
 RING = {'ir_count': 8, 'ir_span': 2 * math.pi * 7 / 8}  # every 45 degrees, none straight ahead
 
 
-def seen(mona: dict, other: tuple[float, float], at=(1.4, 1.4)) -> tuple[bool, bool]:
+def world_of(fields: dict) -> World:
+    """A world of Monas with ``fields`` (of the mona and the sensing sections)."""
+    sensing = {key: value for key, value in fields.items() if key in SENSOR_MODEL}
+    mona = {key: value for key, value in fields.items() if key not in SENSOR_MODEL}
+    return World(WorldParams(), MonaParams(**mona), SensingParams(**sensing))
+
+
+def seen(fields: dict, other: tuple[float, float], at=(1.4, 1.4)) -> tuple[bool, bool]:
     """(does any beam see something, does any say it is a robot) for a robot at ``at``
     facing +x and another at ``other`` (offset from it, m)."""
-    world = World(WorldParams(), MonaParams(**mona))
+    world = world_of(fields)
     world.reset(np.array([[*at, 0.0], [at[0] + other[0], at[1] + other[1], 0.0]]), 1)
     ranges, is_robot = world.ir_readings()
     return bool((ranges[0] < np.inf).any()), bool(is_robot[0].any())
@@ -44,7 +52,7 @@ def test_a_dark_body_is_seen_only_near_contact():
     assert seen(dark, (GAP, 0.0)) == (False, False)  # the beam it stops sees nothing
     assert seen(dark, (0.085, 0.0)) == (True, True)  # 0.5 cm
     # A wall is still seen at the whole range: robot 2 cm from the east wall, nobody near.
-    world = World(WorldParams(), MonaParams(**dark))
+    world = world_of(dark)
     world.reset(np.array([[2.85 - 0.06, 1.4, 0.0]]), 1)
     ranges, is_robot = world.ir_readings()
     assert (ranges[0] < np.inf).any() and not is_robot[0].any()
@@ -57,7 +65,7 @@ def test_near_a_wall_a_robot_is_a_wall_only_in_the_position_mode():
     assert seen(position, (GAP, 0.0), at=near_wall) == (True, False)  # its place says wall
     assert seen(position, (GAP, 0.0)) == (True, True)  # away from walls: a robot
     # And a wall it sees from beyond the margin is a robot to it: the rule's blind spot.
-    world = World(WorldParams(), MonaParams(**position))
+    world = world_of(position)
     world.reset(np.array([[2.85 - 0.06, 1.4, 0.0]]), 1)  # 6 cm from the east wall
     _, is_robot = world.ir_readings()
     assert is_robot[0].any()

@@ -24,7 +24,7 @@ CONFIG = SwarmConfig().replace(episode={'population': 30, 'seed': 9, 'duration':
 def longhand(config):
     """The episode as the runner stepped it before the engine: (poses per step, rows, cue)."""
     n, seed = config.episode.population, config.episode.seed
-    world = World(config.world, config.mona)
+    world = World(config.world, config.mona, config.sensing)
     world.reset(place_robots(n, config.world.arena_side, config.mona.body_radius,
                              placement_rng(seed)))
     controllers = SwarmController(config.controller, config.mona, range(n))
@@ -97,8 +97,8 @@ def test_the_profiled_step_is_the_same_step(reference):
 def test_the_profiled_step_senses_as_the_real_step_with_footprint_noise_and_obstacles():
     # Every sensing path: the footprint's sensed field, the three noise streams, obstacles
     # seen by the IR, and a control period.
-    config = CONFIG.replace(mona={'ground_footprint': 0.03, 'ground_noise': 5.0,
-                                  'ir_miss': 0.2, 'wheel_noise': 0.05},
+    config = CONFIG.replace(sensing={'ground_footprint': 0.03, 'ground_noise': 5.0,
+                                     'ir_miss': 0.2, 'wheel_noise': 0.05},
                             world={'obstacles': {'pillar': [1.2, 1.2, 0.15]},
                                    'control_steps': 2})
     assert_same_run(drive(Episode(config, profile=True)), drive(Episode(config)))

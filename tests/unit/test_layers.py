@@ -7,8 +7,10 @@
   other, and nothing imports the CLI.
 - No import cycle inside a package, counting every import (also those inside functions), but
   those under ``if TYPE_CHECKING:`` (annotations only).
-- The pure cores import no ROS: only the adapters (:data:`ADAPTERS`) and the CLI above them
-  import rclpy or a message package, and no pure module imports an adapter.
+- The pure cores import no ROS: only the adapters and the CLI above them import rclpy or a
+  message package, and no pure module imports an adapter. In the packages of
+  :data:`ROS_FOLDERS` the adapters are exactly the modules of their ``ros`` folders; elsewhere
+  they are listed in :data:`ADAPTERS`.
 - No module uses another module's private name (``from x import _y``, ``x._y``).
 """
 
@@ -27,13 +29,12 @@ PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor
 SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs', 'envs'), ('media',),
                      ('study',), ('analysis', 'system'), ('calibration', 'evolution'),
                      ('cli',))
-#: The ROS adapters: the modules that may import rclpy and the message packages.
+#: Packages whose ROS adapters are exactly their ``ros`` sub-packages (a folder rule).
+ROS_FOLDERS = ('swarm_world', 'swarm_metrics')
+#: The other ROS adapters: the modules that may import rclpy and the message packages.
 ADAPTERS = {
     'mona_controller.controller_node', 'mona_controller.messages', 'mona_controller.qos',
     'mona_controller.ros_params', 'mona_controller.shutdown',
-    'swarm_world.world_node', 'swarm_world.world_messages',
-    'swarm_world.driver.driver_node', 'swarm_world.driver.hil', 'swarm_world.driver.hil_tracker',
-    'swarm_metrics.metrics_node',
     'swarm_supervisor.system.supervisor_node', 'swarm_supervisor.system.live_node',
     'swarm_supervisor.system.replay',
 }
@@ -126,12 +127,20 @@ def supervisor_layer(module: str) -> tuple[int, str]:
                          'SUPERVISOR_LAYERS; add it where it belongs')
 
 
+def adapter(module: str) -> bool:
+    """Whether ``module`` is a ROS adapter (see the module docstring)."""
+    parts = module.split('.')
+    return module in ADAPTERS or (parts[0] in ROS_FOLDERS and 'ros' in parts[1:])
+
+
 def pure(module: str) -> bool:
-    return module not in ADAPTERS and not module.startswith('swarm_supervisor.cli')
+    return not adapter(module) and not module.startswith('swarm_supervisor.cli')
 
 
 def test_every_adapter_exists():
     assert ADAPTERS <= set(MODULES), ADAPTERS - set(MODULES)
+    listed = {name for name in ADAPTERS if name.split('.')[0] in ROS_FOLDERS}
+    assert not listed, f'{listed}: a package of ROS_FOLDERS keeps its adapters in ros/'
 
 
 def test_the_link_is_pure_and_self_contained():
@@ -215,7 +224,7 @@ def test_pure_cores_import_no_ros():
         if not pure(name):
             continue
         for imported, line in imports(name):
-            if is_ros(imported) or ours(imported) in ADAPTERS:
+            if is_ros(imported) or adapter(ours(imported) or ''):
                 wrong.append(f'{MODULES[name].relative_to(SRC)}:{line} imports {imported}')
     assert not wrong, wrong
 

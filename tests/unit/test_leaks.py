@@ -18,6 +18,7 @@ from swarm_supervisor.engine.runner import run_episode
 from swarm_world import transport
 from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams
+from swarm_world.sensing.params import SensingParams
 from swarm_world.sources import Source
 
 #: Two moving, leaking sources on a diffusing, evaporating field (a small arena: fast).
@@ -79,7 +80,7 @@ def test_diffusion_is_stable_and_conserving_for_any_coefficient_and_walls():
 
 def test_evaporation_halves_the_cue_in_one_half_life():
     world = WorldParams(half_life=30.0, transport_period=0.5)
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     initial = field.cue.astype(np.float64)
     assert field.advance_to(30_000_000_000)  # 60 ticks of 0.5 s
     np.testing.assert_allclose(field.cue, initial / 2, rtol=1e-5, atol=1e-4)
@@ -90,7 +91,7 @@ def test_evaporation_halves_the_cue_in_one_half_life():
 def test_emission_restores_the_profile_and_never_exceeds_it():
     world = WorldParams(sources={'leak': [1.4, 1.4, 0.5, 200.0]},
                         source_profile={'leak': ['gaussian']}, source_emission={'leak': [25.0]})
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     profile = field.initial.copy()
     field.cue[:] = 0.0  # cleaned away
     field.cue[140, 150] = 250.0  # above the profile here: left alone
@@ -136,7 +137,7 @@ def test_a_source_on_a_path_follows_its_waypoints_in_a_loop():
 def test_a_moving_leak_deposits_its_profile_where_it_is():
     world = WorldParams(arena_side=1.0, cue_diameter=0.5, sources={'a': [0.3, 0.5, 0.1, 255.0]},
                         source_velocity={'a': [0.04, 0.0]}, source_emission={'a': [1000.0]})
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     assert field.cue[50, 70] == 0.0 and field.cue[50, 50] == 0.0
     field.advance_to(10_000_000_000)  # 0.4 m to the right, at (0.7, 0.5)
     np.testing.assert_allclose(field.source_positions(10.0), [[0.7, 0.5]])
@@ -146,7 +147,7 @@ def test_a_moving_leak_deposits_its_profile_where_it_is():
 
 def test_the_default_field_is_the_papers_disc_and_still():
     world = WorldParams()
-    field = CueField(world, MonaParams())
+    field = CueField(world, MonaParams(), SensingParams())
     assert world.paper_field and not field.dynamic and field.names == ('source',)
     cells = world.cells
     centres = (np.arange(cells) + 0.5) * world.cell_size
@@ -238,7 +239,8 @@ def test_the_episode_cue_equals_its_cleaning_record_replayed():
     """What the metrics node and bag analysis do: a fresh field fed the cleaning events, each
     after the transport ticks of the steps before it, equals the world's cue at every step."""
     episode = Episode(leak_config(population=14, duration=12.0))
-    replica = CueField(episode.config.world, episode.config.mona)
+    replica = CueField(episode.config.world, episode.config.mona,
+                       episode.config.sensing)
     cleanings = 0
     while not episode.done:
         step = episode.step()

@@ -25,8 +25,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from swarm_metrics import completeness, metrics
-from swarm_metrics.bag_reader import read_episode_bag
+from swarm_metrics import metrics
+from swarm_metrics.bags import completeness
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.metrics import METRICS, Metric, register, unregister
 
 ROOT = Path(__file__).parents[2]

@@ -9,9 +9,10 @@ import pytest
 from mona_controller.mona import MonaParams
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
-from swarm_world import noise
 from swarm_world.params import WorldParams
-from swarm_world.sensors import ground_readings
+from swarm_world.sensing import noise
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import ground_readings
 from swarm_world.world import World
 
 
@@ -41,16 +42,17 @@ def test_ground_noise_is_added_before_quantisation_and_clipped():
     cue[:5, :] = 1.0
     poses = np.array([[0.075, 0.05, 0.0]] * 4)  # left sensor (y + 3.5 cm) on 100.4, right 1.0
     extra = np.array([[0.0, 0.0], [0.2, -3.0], [-200.0, 0.4], [300.0, 254.4]])
-    readings = ground_readings(cue, 0.01, poses, MonaParams(), extra)
+    readings = ground_readings(cue, 0.01, poses, MonaParams(), SensingParams(), extra)
     assert readings.dtype == np.uint8
-    np.testing.assert_array_equal(ground_readings(cue, 0.01, poses, MonaParams()), [[100, 1]] * 4)
+    np.testing.assert_array_equal(ground_readings(cue, 0.01, poses, MonaParams(), SensingParams()),
+                                  [[100, 1]] * 4)
     np.testing.assert_array_equal(readings, [[100, 1], [101, 0], [0, 1], [255, 255]])
 
 
 def test_ground_noise_statistics_match_the_parameter():
     sigma = 6.0
-    world = World(WorldParams(), MonaParams(ground_noise=sigma))
-    clean = World(WorldParams(), MonaParams())
+    world = World(WorldParams(), MonaParams(), SensingParams(ground_noise=sigma))
+    clean = World(WorldParams(), MonaParams(), SensingParams())
     poses = np.array([[1.2, 1.3, 0.4], [0.6, 2.0, -1.0]])
     world.reset(poses, seed=11)
     clean.reset(poses, seed=11)
@@ -67,7 +69,7 @@ def test_ground_noise_statistics_match_the_parameter():
 
 
 def test_ir_misses_at_their_rate_and_wheels_slip_by_theirs():
-    world = World(WorldParams(), MonaParams(ir_miss=0.25))
+    world = World(WorldParams(), MonaParams(), SensingParams(ir_miss=0.25))
     poses = np.array([[1.0, 1.0, 0.0], [1.09, 1.0, np.pi]])  # face to face, 1 cm apart
     world.reset(poses, seed=2)
     seen = []
@@ -85,13 +87,13 @@ def test_ir_misses_at_their_rate_and_wheels_slip_by_theirs():
 
 def test_noise_levels_are_reproducible_and_zero_is_the_noise_free_model():
     base = SwarmConfig().replace(episode={'population': 10, 'duration': 30.0, 'seed': 4})
-    noisy = base.replace(mona={'ground_noise': 8.0, 'ir_miss': 0.1, 'wheel_noise': 0.05})
+    noisy = base.replace(sensing={'ground_noise': 8.0, 'ir_miss': 0.1, 'wheel_noise': 0.05})
     first, second = run_episode(noisy), run_episode(noisy)
     np.testing.assert_array_equal(first.final_poses, second.final_poses)
     np.testing.assert_array_equal(first.final_cue, second.final_cue)
     plain = run_episode(base)
-    zero = run_episode(base.replace(mona={'ground_noise': 0.0, 'ir_miss': 0.0,
-                                          'wheel_noise': 0.0}))
+    zero = run_episode(base.replace(sensing={'ground_noise': 0.0, 'ir_miss': 0.0,
+                                             'wheel_noise': 0.0}))
     np.testing.assert_array_equal(plain.final_poses, zero.final_poses)
     assert not np.array_equal(first.final_poses, plain.final_poses)
     other = run_episode(noisy.replace(episode={'seed': 5}))

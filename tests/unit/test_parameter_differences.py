@@ -10,7 +10,7 @@ from mona_controller.schema import differences, flat_fields, to_mapping
 
 def test_a_section_that_leaves_keys_at_their_defaults_does_not_differ():
     mine = MonaParams()
-    shipped_keys_only = {'body_radius': 0.04, 'ir_count': 5}  # ground_noise etc. left out
+    shipped_keys_only = {'body_radius': 0.04, 'ir_count': 5}  # ir_range etc. left out
     assert differences(mine, shipped_keys_only, 'mona.') == []
     assert differences(mine, to_mapping(mine), 'mona.') == []
     assert differences(mine, {}, 'mona.') == []
@@ -18,9 +18,9 @@ def test_a_section_that_leaves_keys_at_their_defaults_does_not_differ():
 
 def test_the_differing_keys_are_named_with_both_values():
     mine = MonaParams()
-    lines = differences(mine, {'ir_range': 0.05, 'ground_noise': 2.0}, 'mona.')
-    assert sorted(lines) == ['mona.ground_noise: announced 2.0, here 0.0',
-                             'mona.ir_range: announced 0.05, here 0.03']
+    lines = differences(mine, {'ir_range': 0.05, 'max_wheel_command': 8.0}, 'mona.')
+    assert sorted(lines) == ['mona.ir_range: announced 0.05, here 0.03',
+                             'mona.max_wheel_command: announced 8.0, here 10.0']
 
 
 def test_an_announcement_this_node_cannot_read_says_why():
@@ -30,4 +30,4 @@ def test_an_announcement_this_node_cannot_read_says_why():
 
 def test_flat_fields_still_lists_every_default():
     names = [name for name, _, _ in flat_fields(MonaParams, 'mona.')]
-    assert 'mona.ground_noise' in names and 'mona.body_radius' in names
+    assert 'mona.ir_span' in names and 'mona.body_radius' in names

@@ -10,7 +10,8 @@ from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots
 from swarm_world.reference import check_ir, first_difference, marched_ir
-from swarm_world.sensors import ground_readings, heading_trig, proximity, proximity_many
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import ground_readings, heading_trig, proximity, proximity_many
 from swarm_world.world import World
 
 BEARINGS = MonaParams().ir_bearings()
@@ -19,10 +20,11 @@ BEARINGS = MonaParams().ir_bearings()
 def test_ground_sensors_sit_under_the_left_and_right_wheels():
     cue = np.tile(np.arange(100, dtype=np.float32), (100, 1))  # value = column (x cell)
     facing_north = np.array([[0.5, 0.5, math.pi / 2]])
-    left, right = ground_readings(cue, 0.01, facing_north, MonaParams())[0]
+    left, right = ground_readings(cue, 0.01, facing_north, MonaParams(), SensingParams())[0]
     assert (left, right) == (46, 53)  # left wheel at x = 0.465, right at x = 0.535
     facing_east = np.array([[0.5, 0.5, 0.0]])
-    assert ground_readings(cue, 0.01, facing_east, MonaParams())[0].tolist() == [50, 50]
+    east = ground_readings(cue, 0.01, facing_east, MonaParams(), SensingParams())
+    assert east[0].tolist() == [50, 50]
 
 
 def test_ir_sees_a_robot_ahead_and_marks_it():
@@ -212,7 +214,7 @@ def test_check_ir_names_the_first_difference():
 
 
 def test_world_cue_is_the_papers_disc():
-    world = World(WorldParams(), MonaParams())
+    world = World(WorldParams(), MonaParams(), SensingParams())
     assert world.cue.shape == (285, 285)
     assert world.cue.max() == pytest.approx(255.0, abs=1.0)
     assert world.cue[0, 0] == 0.0

@@ -13,7 +13,7 @@ import pytest
 
 from mona_controller import contract, topics
 from mona_controller.topics import TOPICS
-from swarm_metrics.bag_writer import offered_qos
+from swarm_metrics.bags.writer import offered_qos
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.media import live, recorded
 from swarm_supervisor.outputs import bag

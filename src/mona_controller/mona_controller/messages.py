@@ -3,7 +3,7 @@
 The world node (or a real Mona driver) builds sensor messages here and the controller node
 reads them back; both sides go through these functions, so values cross the wire unchanged:
 ground readings as uint8, IR ranges as float32, stamps as integer nanoseconds. (The world's
-own topics are converted in :mod:`swarm_world.world_messages`.)
+own topics are converted in :mod:`swarm_world.ros.world_messages`.)
 
 Readings coming in from the outside are untrusted: :func:`ground_from_image` and
 :func:`proximity_from_scan` reject malformed messages with :class:`ReadingError` and sanitize

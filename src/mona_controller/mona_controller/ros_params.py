@@ -22,7 +22,14 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from mona_controller import plugins
-from mona_controller.schema import ParameterError, Spec, flat_fields, from_mapping, unflatten
+from mona_controller.schema import (
+    ParameterError,
+    Spec,
+    flat_fields,
+    from_mapping,
+    moved_keys,
+    unflatten,
+)
 
 T = TypeVar('T')
 
@@ -73,17 +80,23 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
         cls: a schema section (or a composition of sections such as the whole config).
         prefix: the dotted prefix of the section, e.g. ``'controller.'`` ('' for none).
 
+    A parameter given under a key that moved into the section (``mona.ground_noise`` for
+    ``sensing.ground_noise``) is taken as the new one, with a warning in the node's log; one
+    that moved out of it is left to the section it joined.
+
     Raises:
-        ParameterError: an out-of-range, mistyped or unknown value, naming the parameter and
-            its allowed range.
+        ParameterError: an out-of-range, mistyped or unknown value, or a key given under both
+            its old and its new name, naming the parameter and its allowed range.
     """
     values, known = {}, set()
+    moved = _moved_overrides(node, cls, prefix, known)
     for name, default, spec in flat_fields(cls, prefix):
         if spec.keyed:
             values[name[len(prefix):]] = _declare_keyed(node, name)
             known.update(f'{name}.{key}' for key in values[name[len(prefix):]])
             continue
-        ros_default = list(default) if isinstance(default, tuple) else default
+        ros_default = moved.get(name, default)
+        ros_default = list(ros_default) if isinstance(ros_default, tuple) else ros_default
         try:
             param = node.declare_parameter(name, ros_default, descriptor(name, default, spec))
         except ParameterException as error:
@@ -97,6 +110,21 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
     check_unknown(node, [prefix] if prefix else sorted({n.split('.')[0] + '.' for n in values}),
                   known)
     return from_mapping(cls, unflatten(values), prefix)
+
+
+def _moved_overrides(node: Node, cls: type, prefix: str, known: set[str]) -> dict[str, Any]:
+    """The values the node was given under keys that moved into section ``cls``, by their new
+    keys (warned about in the log); the keys that moved out of it are added to ``known``."""
+    overrides = getattr(node, '_parameter_overrides', {})  # rclpy keeps them only privately
+    given = {old: new for old, new in moved_keys(cls, prefix).items() if old in overrides}
+    known.update(given)
+    fields = {name for name, _, _ in flat_fields(cls, prefix)}
+    into = {old: new for old, new in given.items() if new in fields}
+    for old, new in into.items():
+        if new in overrides:
+            raise ParameterError(f'{old} and {new} are both given: give {new} only')
+        node.get_logger().warning(f'{old} is deprecated: use {new}')
+    return {new: _plain(overrides[old].value) for old, new in into.items()}
 
 
 def _declare_keyed(node: Node, name: str) -> dict[str, Any]:

@@ -5,12 +5,18 @@ one validates every field (type and range) and names the offending key in the er
 value fails at start-up in either runner. :func:`from_mapping` builds a section from a (nested)
 mapping and rejects unknown keys; :func:`flat_fields` lists the fields as dotted ROS parameter
 names for the nodes to declare.
+
+A key may move to another section: the section it left lists it in ``MOVED`` (its name ->
+the new dotted key), the section it joined in ``FORMERLY`` (its name -> the old dotted key).
+The old key still works for one release: :func:`moved_keys` lists them, :func:`relocate`
+moves them in a mapping of sections, with a :class:`DeprecatedKeyWarning` naming the new key.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Iterator, Mapping
 from typing import Any, TypeVar
 
@@ -21,6 +27,15 @@ SCALAR_TYPES = (bool, int, float, str)
 
 class ParameterError(ValueError):
     """A parameter is unknown, of the wrong type, or outside its allowed range."""
+
+
+class DeprecatedKeyWarning(DeprecationWarning):
+    """A parameter given under a key that moved: it still works, for one release."""
+
+
+# Shown by default (a plain DeprecationWarning is hidden outside __main__): whoever still
+# writes the old key must learn the new one before it stops working.
+warnings.simplefilter('default', DeprecatedKeyWarning)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -165,9 +180,15 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         ParameterError: for an unknown key (listing the known ones) or a bad value.
     """
     mapping = dict(mapping or {})
+    moved = moved_keys(cls) if not prefix else {}
+    if moved:  # a whole parameter file: keys that moved go to their new sections
+        mapping = relocate(mapping, moved)
     known = {f.name: f for f in parameter_fields(cls)}
     unknown = sorted(set(mapping) - set(known))
     if unknown:
+        new = getattr(cls, 'MOVED', {}).get(unknown[0])
+        if new:
+            raise ParameterError(f'{prefix}{unknown[0]} moved to {new}: give it there')
         raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
                              f'{prefix or "the top level"}: {", ".join(sorted(known))}')
     values = {}
@@ -186,6 +207,55 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         if prefix and not str(error).startswith(prefix):
             raise ParameterError(prefix + str(error)) from None
         raise
+
+
+def moved_keys(cls: type, prefix: str = '') -> dict[str, str]:
+    """Every key that moved out of or into section ``cls`` or a section in it (``MOVED``,
+    ``FORMERLY``), as old dotted key -> new dotted key (keys of the parameter file: a
+    section's ``prefix`` is where it sits in the file)."""
+    found = {f'{prefix}{name}': new for name, new in getattr(cls, 'MOVED', {}).items()}
+    found.update({old: f'{prefix}{name}' for name, old in getattr(cls, 'FORMERLY', {}).items()})
+    for field in parameter_fields(cls):
+        factory = field.default_factory
+        if spec_of(field) is None and callable(factory):
+            found.update(moved_keys(type(factory()), f'{prefix}{field.name}.'))
+    return found
+
+
+def relocate(parameters: Mapping[str, Any], moved: Mapping[str, str], *,
+             warn: bool = True) -> dict[str, Any]:
+    """A copy of ``parameters`` (a mapping of sections, as a parameter file holds them) with
+    each key of ``moved`` it gives (old dotted key -> new) at its new place, with a
+    :class:`DeprecatedKeyWarning` naming the new key unless ``warn`` is False (a record
+    written before the move: nobody to tell).
+
+    Raises:
+        ParameterError: a key given both under its old and its new name.
+    """
+    out = {name: dict(value) if isinstance(value, Mapping) else value
+           for name, value in parameters.items()}
+    for old, new in moved.items():
+        (section, name), (new_section, new_name) = old.split('.', 1), new.split('.', 1)
+        if not isinstance(out.get(section), dict) or name not in out[section]:
+            continue
+        if new_name in (out.get(new_section) or {}):
+            raise ParameterError(f'{old} and {new} are both given: give {new} only')
+        if warn:
+            warnings.warn(f'{old} is deprecated: use {new}', DeprecatedKeyWarning,
+                          stacklevel=2)
+        value = out[section].pop(name)
+        out[new_section] = {**(out.get(new_section) or {}), new_name: value}
+    return out
+
+
+def moved_key(cls: type, key: str) -> str:
+    """The key a dotted parameter key of section ``cls`` names now: itself, or the new key
+    of a key that moved (with a :class:`DeprecatedKeyWarning`)."""
+    new = moved_keys(cls).get(key)
+    if new is None:
+        return key
+    warnings.warn(f'{key} is deprecated: use {new}', DeprecatedKeyWarning, stacklevel=2)
+    return new
 
 
 def to_mapping(section: Any) -> dict[str, Any]:

@@ -32,13 +32,17 @@ from mona_controller.schema import (
     NOT_A_PARAMETER,
     ParameterError,
     from_mapping,
+    moved_key,
+    moved_keys,
     param,
     parameter_fields,
+    relocate,
     to_mapping,
     validate,
 )
 from swarm_metrics.metrics import MetricsParams
 from swarm_world.params import WorldParams
+from swarm_world.sensing.params import SensingParams
 from swarm_world.timing import steps_for
 
 #: The shipped configuration files in the source tree (the parameter file, the Fast DDS
@@ -145,6 +149,7 @@ class SwarmConfig:
     episode: EpisodeParams = dataclasses.field(default_factory=EpisodeParams)
     mona: MonaParams = dataclasses.field(default_factory=MonaParams)
     world: WorldParams = dataclasses.field(default_factory=WorldParams)
+    sensing: SensingParams = dataclasses.field(default_factory=SensingParams)
     controller: ControllerParams = dataclasses.field(default_factory=ControllerParams)
     metrics: MetricsParams = dataclasses.field(default_factory=MetricsParams)
     study: StudyParams = dataclasses.field(default_factory=StudyParams)
@@ -156,11 +161,13 @@ class SwarmConfig:
                 self.study, factors=self._checked_factors()))
 
     def _checked_factors(self) -> tuple[tuple[str, tuple[Any, ...]], ...]:
-        """The study's factors with each key checked against the schema and each level
-        validated (and normalised, e.g. 2 -> 2.0) as that parameter's value."""
+        """The study's factors with each key checked against the schema (a key that moved
+        replaced by its new one) and each level validated (and normalised, e.g. 2 -> 2.0) as
+        that parameter's value."""
         checked = []
-        for key, levels in self.study.factors:
-            where = f'study.factors.{key}'
+        for given, levels in self.study.factors:
+            where = f'study.factors.{given}'
+            key = moved_key(SwarmConfig, given)
             if key in DESIGN_KEYS:
                 raise ParameterError(f'{where}: {key} is set by the design; use '
                                      f'{DESIGN_KEYS[key]}')
@@ -170,8 +177,8 @@ class SwarmConfig:
                 dataclasses.is_dataclass(section) else set()
             if name not in fields:
                 raise ParameterError(f'{where}: no parameter {key} (a factor is a dotted key '
-                                     'of the episode, mona, world, controller or metrics '
-                                     'section)')
+                                     'of the episode, mona, world, sensing, controller or '
+                                     'metrics section)')
             if len(set(levels)) != len(levels):
                 raise ParameterError(f'{where} = {list(levels)!r} repeats a level')
             values = to_mapping(section)
@@ -198,7 +205,7 @@ class SwarmConfig:
     def replace(self, **sections: dict[str, Any]) -> SwarmConfig:
         """A copy with some fields changed, e.g. ``replace(episode={'seed': 3})``; validated."""
         merged = self.to_dict()
-        for name, values in sections.items():
+        for name, values in relocate(sections, moved_keys(SwarmConfig)).items():
             if name not in merged:
                 raise ParameterError(f'unknown parameter section {name}')
             merged[name].update(values)

@@ -16,7 +16,7 @@ polygon. A ROS parameter file cannot mix strings and numbers in one list (rcl re
 "Sequence should be of same type"), so a file that both runners read spells obstacles so.
 
 Every module that needs the arena's geometry takes it from here: :mod:`swarm_world.physics`
-makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensors` casts the IR beams
+makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensing.sensors` casts the IR beams
 against the flat arrays of :func:`pack` (one ray test per kind: the walls, a disc, a segment
 for each edge of a rect or polygon), :mod:`swarm_world.placement` keeps robots clear of them
 by :meth:`clearance`, and :mod:`swarm_world.field` may clear the cue under them.

@@ -17,7 +17,8 @@ from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import transport
 from swarm_world.params import WorldParams
-from swarm_world.sensors import ground_readings
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import ground_readings
 from swarm_world.sources import Source, load_cue_file
 
 
@@ -39,9 +40,10 @@ def initial_cue(params: WorldParams) -> np.ndarray:
 class CueField:
     """The evolving cue raster (float32 [rows, cols], row = y cell) of one episode."""
 
-    def __init__(self, params: WorldParams, mona: MonaParams) -> None:
+    def __init__(self, params: WorldParams, mona: MonaParams, sensing: SensingParams) -> None:
         self.params = params
         self.mona = mona
+        self.sensing = sensing
         self.sources: list[Source] = params.source_list()
         self.initial = initial_cue(params)
         self.initial.setflags(write=False)
@@ -76,7 +78,7 @@ class CueField:
         each robot at ``poses`` [M, 3], in order. The world and every replay of a cleaning
         record call this, so they apply the same changes in the same order."""
         self.advance_to(time_ns - self.step_ns)
-        clean_under(self.cue, poses, self.params, self.mona, self.kernel)
+        clean_under(self.cue, poses, self.params, self.mona, self.sensing, self.kernel)
 
     def advance_to(self, time_ns: int) -> bool:
         """Run every transport tick due by episode time ``time_ns``; True if the cue changed.
@@ -110,7 +112,7 @@ class CueField:
 
 
 def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: MonaParams,
-                kernel: np.ndarray) -> None:
+                sensing: SensingParams, kernel: np.ndarray) -> None:
     """One cleaning tick, in place: eq. 3 under each robot at ``poses`` [M, 3], in order.
 
     In literal mode a robot's level is its mean ground reading (without sensor noise).
@@ -121,8 +123,8 @@ def clean_under(cue: np.ndarray, poses: np.ndarray, params: WorldParams, mona: M
     levels = None
     if params.cleaning == 'literal':
         sensed = cue_field.sensed_field(
-            cue, cue_field.footprint_cells(mona.ground_footprint, params.cell_size))
-        ground = ground_readings(sensed, params.cell_size, poses, mona)
+            cue, cue_field.footprint_cells(sensing.ground_footprint, params.cell_size))
+        ground = ground_readings(sensed, params.cell_size, poses, mona, sensing)
         levels = ground.astype(np.float64).mean(axis=1)
     cue_field.clean(cue, cells, kernel, literal_levels=levels,
                     blend=params.cleaning == 'blend')

@@ -7,6 +7,7 @@ them back into yaw with the same formula, so a pose crosses the wire and the bag
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def yaw_to_quaternion(yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -20,7 +21,7 @@ def yaw_from_quaternion(qz: np.ndarray, qw: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(qz, qw)
 
 
-def poses_from_rows(rows: np.ndarray) -> np.ndarray:
+def poses_from_rows(rows: ArrayLike) -> np.ndarray:
     """[N, 3] (x, y, yaw) from rows [N, 4] of (x, y, qz, qw)."""
     rows = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
     return np.column_stack((rows[:, 0], rows[:, 1], yaw_from_quaternion(rows[:, 2], rows[:, 3])))

@@ -14,13 +14,14 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
-from swarm_world import noise
 from swarm_world.arena import pack
-from swarm_world.delay import CommandDelay
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
-from swarm_world.sensors import (
+from swarm_world.sensing import noise
+from swarm_world.sensing.delay import CommandDelay
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.sensors import (
     NO_NOISE,
     ground_kernel,
     ground_many_kernel,
@@ -29,8 +30,8 @@ from swarm_world.sensors import (
     proximity_many,
     sensor_geometry,
 )
+from swarm_world.sensing.transfer import transfer_table
 from swarm_world.timing import crossed
-from swarm_world.transfer import transfer_table
 
 #: No robot (what ``World.cleaned`` holds after a step without cleaning); read-only, shared.
 _NOBODY = np.zeros(0, dtype=np.int64)
@@ -55,25 +56,27 @@ class Readings:
 class World:
     """N Monas in the walled arena, among its obstacles, on the cue field."""
 
-    def __init__(self, params: WorldParams, mona: MonaParams) -> None:
+    def __init__(self, params: WorldParams, mona: MonaParams, sensing: SensingParams) -> None:
         self.params = params
         self.mona = mona
+        self.sensing = sensing
         self.arena = params.arena()  #: the walls and the obstacles
         self.bearings = mona.ir_bearings()
-        self.field = CueField(params, mona)
+        self.field = CueField(params, mona, sensing)
         self._step_ns = params.step_ns
         self._cleaning_ns = round(params.cleaning_period * 1e9)
-        self.footprint = cue_field.footprint_cells(mona.ground_footprint, params.cell_size)
+        self.footprint = cue_field.footprint_cells(sensing.ground_footprint, params.cell_size)
         #: The ground sensors: where they sit (sensors.sensor_geometry) and what they read on
         #: a cue value (transfer.transfer_table; empty: the value itself).
-        self.sensor_geometry = sensor_geometry(mona)
-        self.transfer = transfer_table(mona)
+        self.sensor_geometry = sensor_geometry(mona, sensing)
+        self.transfer = transfer_table(sensing)
         self._sensed: np.ndarray | None = None  # the cue as the ground sensors see it
-        self.noise = noise.NoiseLevels(ground=mona.ground_noise, ir_miss=mona.ir_miss,
-                                       wheel=mona.wheel_noise)
+        self.noise = noise.NoiseLevels(ground=sensing.ground_noise, ir_miss=sensing.ir_miss,
+                                       wheel=sensing.wheel_noise)
         self.seed = 0  # the episode seed: the noise streams derive from it
-        #: World steps between a command and the wheels (mona.command_latency control steps).
-        self.latency_steps = mona.command_latency * params.control_steps
+        #: World steps between a command and the wheels (sensing.command_latency control
+        #: steps).
+        self.latency_steps = sensing.command_latency * params.control_steps
         self.delay: CommandDelay | None = None  # the episode's delay line (None: no latency)
         self.physics = self._physics(np.zeros((0, 3)))
         self.time_ns = 0
@@ -176,9 +179,9 @@ class World:
     @property
     def perceives(self) -> bool:
         """Whether :meth:`perceive` changes anything (else the beams are the geometry's)."""
-        mona = self.mona
-        return (mona.ir_robot_factor < 1.0 or bool(self.noise.ir_miss)
-                or mona.robot_detection == 'position')
+        sensing = self.sensing
+        return (sensing.ir_robot_factor < 1.0 or bool(self.noise.ir_miss)
+                or sensing.robot_detection == 'position')
 
     def perceive(self, ranges: np.ndarray, is_robot: np.ndarray, poses: np.ndarray) -> None:
         """In place, what this world's robots make of their beams beyond the geometry: a
@@ -186,15 +189,15 @@ class World:
         stops sees nothing), this step's missed beams drop out (``ir_miss``), and with
         ``robot_detection: position`` whatever a beam sees is a wall when the robot's centre
         is within ``wall_margin`` of a wall or an obstacle, else a robot."""
-        mona = self.mona
-        if mona.ir_robot_factor < 1.0:
-            far = is_robot & (ranges > mona.ir_range * mona.ir_robot_factor)
+        mona, sensing = self.mona, self.sensing
+        if sensing.ir_robot_factor < 1.0:
+            far = is_robot & (ranges > mona.ir_range * sensing.ir_robot_factor)
             ranges[far] = np.inf
             is_robot[far] = False
         if self.noise.ir_miss:
             self.miss_beams(ranges, is_robot)
-        if mona.robot_detection == 'position':
-            near = self.clearance(poses) < mona.wall_margin
+        if sensing.robot_detection == 'position':
+            near = self.clearance(poses) < sensing.wall_margin
             is_robot[:] = (ranges < np.inf) & ~near[:, None]
 
     def clearance(self, poses: np.ndarray) -> np.ndarray:
@@ -228,7 +231,7 @@ class World:
 
     def step(self, linear: np.ndarray, angular: np.ndarray, cleaner: np.ndarray) -> None:
         """Advance one step with these commands; clean on each cleaning-period boundary.
-        With ``mona.command_latency`` the commands drive a later step (:meth:`delayed`).
+        With ``sensing.command_latency`` the commands drive a later step (:meth:`delayed`).
 
         Args:
             linear: [N] forward speeds (m/s).
@@ -301,7 +304,7 @@ class WorldBatch:
                     np.array([mona.ir_range for mona in monas]),
                     np.array([world.params.arena_side for world in worlds]),
                     pack([world.arena for world in worlds]))
-        # The worlds whose commands reach the wheels late (mona.command_latency), with rows.
+        # The worlds whose commands reach the wheels late (sensing.command_latency), with rows.
         self._delayed = [(world, rows) for world, rows in zip(worlds, self.slices)
                          if world.delay is not None]
         # The worlds with each kind of noise (usually none), with their rows.

@@ -13,17 +13,18 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mona_controller.schema import ParameterError
+from mona_controller.schema import ParameterError, moved_keys, relocate
 from swarm_supervisor.config import SOURCE_CONFIG, SwarmConfig, load_config, shipped
 
 #: The parameters of the sensing and encounter chain, by dotted key.
 MODEL_CHAIN: tuple[str, ...] = (
-    'mona.ground_transfer', 'mona.ground_height', 'mona.ground_lut', 'mona.ground_reflection',
-    'mona.ground_roughness', 'mona.ground_calibration', 'mona.ground_table',
-    'mona.ground_baseline', 'mona.ground_offset', 'mona.ground_footprint', 'mona.ground_noise',
-    'mona.ir_count', 'mona.ir_span', 'mona.ir_range', 'mona.ir_robot_factor',
-    'mona.robot_detection', 'mona.wall_margin', 'mona.command_latency', 'world.cell_size',
-    'world.cleaning', 'world.control_steps', 'controller.turn_at',
+    'sensing.ground_transfer', 'sensing.ground_height', 'sensing.ground_lut',
+    'sensing.ground_reflection', 'sensing.ground_roughness', 'sensing.ground_calibration',
+    'sensing.ground_table', 'sensing.ground_baseline', 'sensing.ground_offset',
+    'sensing.ground_footprint', 'sensing.ground_noise', 'mona.ir_count', 'mona.ir_span',
+    'mona.ir_range', 'sensing.ir_robot_factor', 'sensing.robot_detection',
+    'sensing.wall_margin', 'sensing.command_latency', 'world.cell_size', 'world.cleaning',
+    'world.control_steps', 'controller.turn_at',
 )
 #: The shipped profiles (in the source tree; an installed package has its copy:
 #: :func:`profiles_dir`).
@@ -39,6 +40,7 @@ def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
     """The chain's values in a record's ``parameters`` (``SwarmConfig.to_dict`` form), each as
     JSON so that lists and numbers compare exactly; a key the record lacks is its default."""
     defaults = SwarmConfig().to_dict()
+    parameters = relocate(parameters, moved_keys(SwarmConfig), warn=False)  # older records
     values = {}
     for key in MODEL_CHAIN:
         section, name = key.split('.')

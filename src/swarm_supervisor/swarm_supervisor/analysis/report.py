@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from swarm_metrics.completeness import Finding
+from swarm_metrics.bags.completeness import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
 from swarm_supervisor.analysis import beyond_figures, checks, figures, profile, sensitivity

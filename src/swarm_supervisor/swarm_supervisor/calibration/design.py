@@ -18,7 +18,7 @@ A design is a YAML file with one mapping, ``calibrate``::
       parameters:                  # dotted schema key -> its range
         controller.alpha: {low: 2.0, high: 40.0, log: true}
         world.control_steps: {low: 1, high: 4}             # a whole-number parameter
-        mona.ground_transfer: {choices: [linear, webots]}
+        sensing.ground_transfer: {choices: [linear, webots]}
 
 A float or int parameter takes ``low``, ``high`` and optionally ``log`` (and ``step`` for
 ints); any parameter may take ``choices`` instead. Every key and every bound is checked against
@@ -38,7 +38,7 @@ from typing import Any
 
 import yaml
 
-from mona_controller.schema import ParameterError, from_mapping, spec_of, to_mapping
+from mona_controller.schema import ParameterError, from_mapping, moved_key, spec_of, to_mapping
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
 
 #: The keys of the ``calibrate`` mapping.
@@ -132,8 +132,10 @@ def _study(base: StudyParams, values: Any, where: str) -> StudyParams:
 
 
 def _range(key: str, text: Any, config: SwarmConfig) -> Range:
-    """One parameter's range, checked against the schema (its type and allowed values)."""
+    """One parameter's range, checked against the schema (its type and allowed values); a
+    key that moved is replaced by its new one."""
     where = _where('parameters', key)
+    key = moved_key(SwarmConfig, key)
     if key in DESIGN_KEYS or key.startswith('study.'):
         raise CalibrationError(f'{where}: {key} is set by the studies of the design, not '
                                'searched')
@@ -143,8 +145,8 @@ def _range(key: str, text: Any, config: SwarmConfig) -> Range:
         dataclasses.is_dataclass(section) else {}
     if name not in fields or spec_of(fields[name]) is None:
         raise CalibrationError(f'{where}: no parameter {key} (a searched parameter is a dotted '
-                               'key of the episode, mona, world, controller or metrics '
-                               'section)')
+                               'key of the episode, mona, world, sensing, controller or '
+                               'metrics section)')
     spec = spec_of(fields[name])
     current = getattr(section, name)
     text = _mapping(text, where)

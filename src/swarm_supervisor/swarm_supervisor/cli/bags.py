@@ -2,7 +2,7 @@
 
 A bag the writer never closed (a killed node) is recovered automatically by ``analyze`` and
 ``replay`` into ``<bag>_recovered``. A bad bag gets a one-paragraph report and exit status 2.
-A readable bag that fails a completeness check (:mod:`swarm_metrics.completeness`: the first
+A readable bag that fails a completeness check (:mod:`swarm_metrics.bags.completeness`: the first
 seconds missing, a gap, no ``finished`` status, a cue map the cleaning record does not
 rebuild, ...) is an error with exit status 1 that names the checks; with
 ``--allow-incomplete`` it is used anyway, and ``analyze`` records the findings in episode.json.
@@ -19,11 +19,11 @@ from pathlib import Path
 
 from mona_controller import plugins
 from mona_controller.schema import ParameterError, from_mapping
-from swarm_metrics import completeness
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode_bag
-from swarm_metrics.completeness import Finding
-from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
+from swarm_metrics.bags import completeness
+from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags.reader import BagError, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.recover import SUFFIX, recover_bag, with_recovery
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.cli.bag_outputs import (
     ANALYSIS_SUFFIX,

@@ -36,7 +36,13 @@ def render() -> str:
     config = SwarmConfig()
     for section in parameter_fields(SwarmConfig):
         instance = getattr(config, section.name)
-        lines += [f'## `{section.name}`', '', ' '.join((type(instance).__doc__ or '').split()), '',
+        text = ' '.join((type(instance).__doc__ or '').split())
+        formerly = sorted({old.rpartition('.')[0] for old in
+                           getattr(type(instance), 'FORMERLY', {}).values()})
+        if formerly:
+            text += (f' These keys were {", ".join(f"`{s}.<key>`" for s in formerly)}: the old '
+                     'keys still work for one release, with a warning naming the new one.')
+        lines += [f'## `{section.name}`', '', text, '',
                   '| key | default | unit | allowed | meaning |', '|---|---|---|---|---|']
         for field in dataclasses.fields(instance):
             spec = spec_of(field)

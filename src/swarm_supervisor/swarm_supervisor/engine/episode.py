@@ -60,7 +60,7 @@ class Episode:
                 benchmark's split; a little slower, same results).
         """
         self.config = config
-        self.world = World(config.world, config.mona)
+        self.world = World(config.world, config.mona, config.sensing)
         self.controllers = make_controller(config.controller, config.mona,
                                            range(config.episode.population))
         self.steps_total = config.steps()

@@ -49,9 +49,13 @@ from mona_controller.contract import (
     WorldStatus,
     metric_topic,
 )
-from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics import metric_names
-from swarm_metrics.world_cdr import (
+from swarm_supervisor.engine.episode import Episode, Step
+from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
+from swarm_supervisor.media.relay import SDK_SUBPROTOCOL, Relay
+from swarm_supervisor.outputs.bag import EMBEDDED_MODE
+from swarm_world.messages.cdr import (
+    TYPESTORE,
     clock_cdr,
     cue_grid_cdr,
     cue_image_cdr,
@@ -63,10 +67,6 @@ from swarm_metrics.world_cdr import (
     states_cdr,
     string_cdr,
 )
-from swarm_supervisor.engine.episode import Episode, Step
-from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
-from swarm_supervisor.media.relay import SDK_SUBPROTOCOL, Relay
-from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 

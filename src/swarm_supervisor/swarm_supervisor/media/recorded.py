@@ -18,11 +18,11 @@ from mona_controller.contract import (
     ROBOT_STATES,
     STATUS,
 )
-from swarm_metrics.analysis import AnnouncementError, EpisodeSetup
-from swarm_metrics.bag_reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
-from swarm_metrics.world_cdr import states_from_cdr
+from swarm_metrics.bags.analysis import AnnouncementError, EpisodeSetup
+from swarm_metrics.bags.reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
 from swarm_world.arena import Obstacle
-from swarm_world.arena_markers import obstacles_from_markers
+from swarm_world.messages.cdr import states_from_cdr
+from swarm_world.messages.markers import obstacles_from_markers
 
 
 class AnimateError(Exception):

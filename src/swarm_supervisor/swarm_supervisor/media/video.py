@@ -32,10 +32,10 @@ from PIL import Image, ImageDraw, ImageFont
 
 from mona_controller.controller import STATE_NAMES, WAIT
 from swarm_metrics.metrics import METRICS, plotted
-from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.recorded import AnimateError, Record, read_record
-from swarm_world.arena_markers import COLOUR as OBSTACLE_RGBA
 from swarm_world.field import CueField
+from swarm_world.messages.markers import COLOUR as OBSTACLE_RGBA
+from swarm_world.messages.markers import STATE_COLOURS
 
 ASPECT = 16 / 9
 #: The vertical pitch and height of the metric plots (figure fractions): three fill the
@@ -71,7 +71,7 @@ class Renderer:
         self._layout()
         self.lut = (colormaps['viridis'](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
         # The cue, rebuilt from the episode's field by the cleaning record as time goes on.
-        self.field = CueField(setup.world, setup.mona)
+        self.field = CueField(setup.world, setup.mona, setup.sensing)
         self.cue = self.field.cue
         self._next_event = 0
         self._time_ns = -1

@@ -7,7 +7,7 @@ _WHERE = {
     **dict.fromkeys(('EPISODE_FILE', 'FINAL_PNG', 'METRICS_FILE', 'SNAPSHOTS_FILE',
                      'episode_complete', 'episode_record', 'read_metrics_csv',
                      'write_episode', 'write_metrics_csv'), 'episode_folder'),
-    **dict.fromkeys(('BagOptions', 'BagRecorder', 'EMBEDDED_MODE', 'ROBOT_STATES', 'RecordError',
+    **dict.fromkeys(('BagOptions', 'BagRecorder', 'EMBEDDED_MODE', 'RecordError',
                      'TOPICS', 'record_episode', 'status_json'), 'bag'),
     **dict.fromkeys(('draw_cue_map', 'save_cue_map'), 'pictures'),
     **dict.fromkeys(('RECORD_FILES', 'RecordExists', 'claim_output', 'record_in'), 'guard'),

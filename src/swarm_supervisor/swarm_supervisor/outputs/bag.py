@@ -2,9 +2,9 @@
 
 :class:`BagRecorder` watches an embedded episode (an observer of
 :func:`~swarm_supervisor.engine.run_episode`), makes the messages the world node and the
-supervisor would publish for it (:mod:`swarm_metrics.world_cdr`), in the order they publish
+supervisor would publish for it (:mod:`swarm_world.messages.cdr`), in the order they publish
 them, and feeds them to the metrics node's own recording logic,
-:class:`swarm_metrics.recording.Recorder`. So the embedded bag has the node system's topics,
+:class:`swarm_metrics.bags.recording.Recorder`. So the embedded bag has the node system's topics,
 types, QoS metadata, custom_data and sampling, by construction; ``analyze``, ``replay``,
 ``animate`` and Foxglove read either runner's bags alike, down to the robots' controller
 states and the sources' markers.
@@ -32,10 +32,13 @@ from mona_controller.contract import (
     WorldState,
     WorldStatus,
 )
-from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
+from swarm_metrics.bags.recording import Closed, Recorder
+from swarm_metrics.bags.writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
-from swarm_metrics.recording import Closed, Recorder
-from swarm_metrics.world_cdr import (
+from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.engine.episode import Episode, Step
+from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult, run_episode
+from swarm_world.messages.cdr import (
     clock_cdr,
     cue_image_cdr,
     obstacles_cdr,
@@ -44,9 +47,6 @@ from swarm_metrics.world_cdr import (
     states_cdr,
     string_cdr,
 )
-from swarm_supervisor.config import SwarmConfig
-from swarm_supervisor.engine.episode import Episode, Step
-from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult, run_episode
 from swarm_world.params import WorldNodeParams
 from swarm_world.timing import crossed
 

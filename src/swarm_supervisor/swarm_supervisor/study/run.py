@@ -20,6 +20,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from mona_controller.schema import moved_keys, relocate
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError
@@ -48,7 +49,8 @@ def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
 def _check_kept(folder: Path, config: SwarmConfig) -> None:
     """Refuse to mix a finished episode run with other parameters or other plug-in code into
     this study. A parameter the episode's record lacks (one added to the schema since) counts
-    as its default: that is what the episode ran."""
+    as its default: that is what the episode ran; one that moved since is read at its new
+    key."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
     ran = {(plugin.get('path'), plugin.get('sha256')) for plugin in record.get('plugins', [])}
     for plugin in config.plugins:
@@ -56,7 +58,7 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
             raise StudyError(f'{folder} was run without the plug-in {plugin.path} as it is now '
                              f'(SHA-256 {plugin.sha256[:12]}...): --out holds a study that ran '
                              f'other code; {FIX}')
-    stored = record.get('parameters', {})
+    stored = relocate(record.get('parameters', {}), moved_keys(SwarmConfig), warn=False)
     expected = _expected_parameters(config)
     defaults = _expected_parameters(SwarmConfig())
     for section, values in expected.items():

@@ -22,7 +22,7 @@ import pandas as pd
 
 from mona_controller import plugins
 from mona_controller.plugins import Plugin
-from swarm_metrics.completeness import Finding, check_rows
+from swarm_metrics.bags.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs
 from swarm_supervisor.config import DESIGN_KEYS, SwarmConfig

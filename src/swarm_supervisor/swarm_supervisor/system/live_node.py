@@ -34,7 +34,7 @@ from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
-from swarm_metrics.recording import stamp_ns
+from swarm_metrics.bags.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 
 

@@ -17,7 +17,7 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from mona_controller import qos
-from swarm_metrics.bag_reader import McapScan
+from swarm_metrics.bags.reader import McapScan
 
 #: The QoS of a recorded topic the contract does not know.
 OTHER_QOS = QoSProfile(depth=10)

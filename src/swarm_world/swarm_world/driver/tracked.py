@@ -16,6 +16,7 @@ import numpy as np
 from mona_controller.mona import MonaParams
 from swarm_world.driver.calibration import ADC_MAX, IrCalibration
 from swarm_world.params import WorldParams
+from swarm_world.sensing.params import SensingParams
 from swarm_world.world import World
 
 
@@ -24,15 +25,16 @@ class TrackedWorld(World):
 
     Args:
         params: the world section (arena, cue, cleaning).
-        mona: the robots' geometry and sensors.
+        mona: the robots' geometry and IR ring.
+        sensing: the virtual ground sensors' model (the real IR sensors perceive).
         calibration: raw IR ADC to range.
         robot_margin: how far (m) beyond a body edge the point a beam reports may lie and
             still be that robot (the tracker's error).
     """
 
-    def __init__(self, params: WorldParams, mona: MonaParams,
+    def __init__(self, params: WorldParams, mona: MonaParams, sensing: SensingParams,
                  calibration: IrCalibration | None = None, robot_margin: float = 0.02) -> None:
-        super().__init__(params, mona)
+        super().__init__(params, mona, sensing)
         self.calibration = calibration or IrCalibration()
         self.robot_margin = robot_margin
         self.tracked = np.zeros((0, 3))

@@ -26,6 +26,7 @@ from pathlib import Path
 from types import TracebackType
 
 from rosbags.interfaces import (
+    Connection,
     Qos,
     QosDurability,
     QosHistory,
@@ -35,12 +36,10 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
-from rosbags.typesys import Stores, get_typestore
 
 from mona_controller.topics import QoS, Topic
+from swarm_world.messages.cdr import TYPESTORE
 
-#: The message types every bag is written (and read) with.
-TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 #: Default sim time a chunk stays open: the most a SIGKILL can lose (s).
 CHUNK_PERIOD = 5.0
 #: Prefix of this project's keys in the rosbag2 ``custom_data``.
@@ -104,7 +103,7 @@ class EpisodeBagWriter:
         self.chunk_period_ns = round(chunk_period * 1e9)
         self._writer = _Rosbag2Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        self._connections = {}
+        self._connections: dict[str, Connection] = {}
         self._chunk_start_ns: int | None = None
         self.messages = 0
         self._writer.open()
@@ -160,8 +159,8 @@ class EpisodeBagWriter:
 
     def flush(self) -> None:
         """End the open chunk and hand it to the operating system (it survives a SIGKILL)."""
-        storage = self._writer.storage
-        if storage is not None and storage.chunk.bio.tell():
+        storage = self._writer.storage  # checked in __init__: a _CheckedMcapWriter
+        if isinstance(storage, _CheckedMcapWriter) and storage.chunk.bio.tell():
             storage.close_chunk()
         self._chunk_start_ns = None
 

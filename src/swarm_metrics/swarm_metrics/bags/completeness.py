@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 
 from mona_controller.contract import ROBOT_STATES, SOURCES
-from swarm_metrics.analysis import Recomputation, episode_setup, recompute
-from swarm_metrics.bag_reader import STATUS, BagError, EpisodeBag
+from swarm_metrics.bags.analysis import Recomputation, episode_setup, recompute
+from swarm_metrics.bags.reader import STATUS, BagError, EpisodeBag
 from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.

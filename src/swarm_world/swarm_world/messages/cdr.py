@@ -12,13 +12,19 @@ from __future__ import annotations
 import functools
 import json
 import struct
+from typing import Any
 
 import numpy as np
+from rosbags.typesys import Stores, get_typestore
 
-from swarm_metrics.bag_writer import TYPESTORE
-from swarm_world import arena_markers
+from mona_controller.contract import WORLD_FRAME
 from swarm_world.arena import Arena
+from swarm_world.messages import markers as arena_markers
+from swarm_world.messages.cue_map import cue_mono8, cue_percent
 
+#: The message types of ROS 2 Jazzy: the world's messages are built with them, and every bag
+#: is written and read with them.
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 TYPES = TYPESTORE.types
 STRING = 'std_msgs/msg/String'
 FLOAT64 = 'std_msgs/msg/Float64'
@@ -30,12 +36,6 @@ OCCUPANCY_GRID = 'nav_msgs/msg/OccupancyGrid'
 MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 #: Little-endian CDR's encapsulation header (what rclpy writes on this machine).
 CDR_LE = b'\x00\x01\x00\x00'
-WORLD_FRAME = 'world'
-#: RGBA per controller state: the colours of the robot markers and of the videos
-#: (:data:`swarm_world.arena_markers.STATE_COLOURS`, which the world node uses too).
-STATE_COLOURS = arena_markers.STATE_COLOURS
-#: The drawn height of a robot's cylinder marker (m).
-MARKER_HEIGHT = 0.05
 
 
 def serialize(msg: object, msgtype: str) -> bytes:
@@ -81,7 +81,7 @@ def clock_cdr(ns: int) -> bytes:
 
 def pose_array_cdr(poses: np.ndarray, ns: int, frame: str = WORLD_FRAME) -> bytes:
     """geometry_msgs/PoseArray of [N, 3] poses (x, y, yaw; yaw as a z-axis quaternion), as the
-    world node fills it (swarm_world.world_messages.PoseArrayFiller), in one numpy pass."""
+    world node fills it (swarm_world.ros.world_messages.PoseArrayFiller), in one numpy pass."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     head = _header_cdr(ns, frame)
     head += b'\x00' * (-len(head) % 4) + struct.pack('<I', len(poses))
@@ -93,11 +93,6 @@ def pose_array_cdr(poses: np.ndarray, ns: int, frame: str = WORLD_FRAME) -> byte
     body[:, 5] = np.sin(poses[:, 2] / 2)
     body[:, 6] = np.cos(poses[:, 2] / 2)
     return CDR_LE + head + body.astype('<f8').tobytes()
-
-
-def cue_mono8(cue: np.ndarray) -> np.ndarray:
-    """The cue raster as uint8, rounded as the ground sensors read it (row 0 at y = 0)."""
-    return np.clip(np.rint(cue), 0, 255).astype(np.uint8)
 
 
 def cue_image_cdr(cue: np.ndarray, ns: int) -> bytes:
@@ -116,7 +111,7 @@ def cue_grid_cdr(cue: np.ndarray, cell_size: float, ns: int) -> bytes:
     """nav_msgs/OccupancyGrid of the cue scaled to 0..100, origin at the world origin (as
     /world/cue_grid: a map overlay in Foxglove's 3D panel)."""
     rows, cols = cue.shape
-    scaled = np.clip(np.rint(cue.astype(np.float64) * (100.0 / 255.0)), 0, 100).astype(np.int8)
+    scaled = cue_percent(cue)
     # By hand: the type store's serializer takes milliseconds even for the empty grid.
     head = _header_cdr(ns, WORLD_FRAME)
     head += b'\x00' * (-len(head) % 4)
@@ -137,13 +132,15 @@ def states_cdr(states: np.ndarray) -> bytes:
 
 def states_from_cdr(data: bytes) -> np.ndarray:
     """The states of a ``/world/robot_states`` message."""
-    return np.asarray(TYPESTORE.deserialize_cdr(data, UINT8_ARRAY).data, dtype=np.uint8)
+    message: Any = TYPESTORE.deserialize_cdr(data, UINT8_ARRAY)
+    return np.asarray(message.data, dtype=np.uint8)
 
 
 def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):
     """One robot's cylinder marker."""
-    return _any_marker(stamp_ns, 'robots', robot, 3, (x, y, MARKER_HEIGHT / 2),  # CYLINDER
-                       (2 * body_radius, 2 * body_radius, MARKER_HEIGHT), colour)
+    height = arena_markers.ROBOT_HEIGHT
+    return _any_marker(stamp_ns, 'robots', robot, arena_markers.CYLINDER, (x, y, height / 2),
+                       (2 * body_radius, 2 * body_radius, height), colour)
 
 
 def _any_marker(stamp_ns: int, namespace: str, marker_id: int, kind: int,
@@ -173,7 +170,7 @@ def _any_marker(stamp_ns: int, namespace: str, marker_id: int, kind: int,
 
 def obstacles_cdr(arena: Arena) -> bytes:
     """visualization_msgs/MarkerArray ``/world/obstacles``: one grey marker per obstacle of
-    ``arena`` (:mod:`swarm_world.arena_markers`), stamp 0; no obstacles, no markers. Built
+    ``arena`` (:mod:`swarm_world.messages.markers`), stamp 0; no obstacles, no markers. Built
     from the same marker data as the world node's message."""
     return _marker_array_cdr(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
                              arena_markers.COLOUR, 0)
@@ -182,7 +179,7 @@ def obstacles_cdr(arena: Arena) -> bytes:
 def sources_cdr(names: tuple[str, ...], positions: np.ndarray, ns: int) -> bytes:
     """visualization_msgs/MarkerArray ``/world/sources``: one sphere per source at
     ``positions`` [S, 2], stamped ``ns``; the same marker data as the world node's message
-    (:func:`swarm_world.arena_markers.source_markers`)."""
+    (:func:`swarm_world.messages.markers.source_markers`)."""
     return _marker_array_cdr(arena_markers.source_markers(names, positions.tolist()),
                              arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR, ns)
 
@@ -233,7 +230,8 @@ def _marker_layout(body_radius: float) -> tuple[int, int, bytes]:
 def markers_cdr(poses: np.ndarray, states: np.ndarray | None, body_radius: float,
                 ns: int) -> bytes:
     """visualization_msgs/MarkerArray: one cylinder per robot (ns 'robots', id = robot),
-    coloured by controller state (:data:`STATE_COLOURS`; without states, follow's colour)."""
+    coloured by controller state (:data:`swarm_world.messages.markers.STATE_COLOURS`;
+    without states, follow's colour)."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     n = len(poses)
     states = np.zeros(n, dtype=np.uint8) if states is None else np.asarray(states)
@@ -248,6 +246,7 @@ def markers_cdr(poses: np.ndarray, states: np.ndarray | None, body_radius: float
     for key, column in (('x', 0), ('y', 1)):
         out[:, offsets[key]:offsets[key] + 8] = \
             np.ascontiguousarray(poses[:, column], dtype='<f8')[:, None].view(np.uint8)
-    colours = np.asarray(STATE_COLOURS, dtype='<f4')[np.minimum(states, len(STATE_COLOURS) - 1)]
+    palette = arena_markers.STATE_COLOURS
+    colours = np.asarray(palette, dtype='<f4')[np.minimum(states, len(palette) - 1)]
     out[:, offsets['rgba']:offsets['rgba'] + 16] = np.ascontiguousarray(colours).view(np.uint8)
     return CDR_LE + struct.pack('<I', n) + out.tobytes()[:n * size - pad if n else 0]

@@ -23,7 +23,8 @@ import numpy as np
 
 from mona_controller.mona import MonaParams
 from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
-from swarm_world.transfer import transfer_table
+from swarm_world.sensing.params import SensingParams
+from swarm_world.sensing.transfer import transfer_table
 
 #: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
 NO_NOISE = np.zeros((0, 2))
@@ -53,7 +54,7 @@ def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
         geometry: (half the distance between the sensors, how far ahead of the axle they
             sit) in m (:func:`sensor_geometry`).
         table: the transfer's readings at evenly spaced cue values
-            (:func:`swarm_world.transfer.transfer_table`), or empty: the cell value itself.
+            (:func:`swarm_world.sensing.transfer.transfer_table`), or empty: the cell value itself.
         noise: [N, 2] reading units added before rounding, or :data:`NO_NOISE` (zero rows).
         out: [N, 2] uint8, filled and returned.
     """
@@ -83,28 +84,28 @@ def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
     return out
 
 
-def sensor_geometry(mona: MonaParams) -> np.ndarray:
+def sensor_geometry(mona: MonaParams, sensing: SensingParams) -> np.ndarray:
     """[half the distance between the two ground sensors, their offset ahead of the axle] (m):
-    under the wheels unless ``mona.ground_baseline`` says otherwise."""
-    baseline = mona.ground_baseline or mona.wheel_separation
-    return np.array([baseline / 2, mona.ground_offset])
+    under the wheels unless ``sensing.ground_baseline`` says otherwise."""
+    baseline = sensing.ground_baseline or mona.wheel_separation
+    return np.array([baseline / 2, sensing.ground_offset])
 
 
 def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray, mona: MonaParams,
-                    noise: np.ndarray | None = None) -> np.ndarray:
+                    sensing: SensingParams, noise: np.ndarray | None = None) -> np.ndarray:
     """What the left and right ground sensors read, rounded: [N, 2] uint8 (left, right).
 
     Args:
         cue: the field the sensors see (the cue, or its footprint's sensed field).
-        mona: the sensors' geometry and transfer.
+        mona, sensing: the robot's wheels; the sensors' geometry and transfer.
         noise: [N, 2] reading units added to each value before it is rounded and clipped to
             0..255 (sensor noise; None: none).
     """
     out = np.empty((len(poses), 2), dtype=np.uint8)
     noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
     poses = np.ascontiguousarray(poses, dtype=np.float64)
-    return ground_kernel(cue, cell_size, poses, heading_trig(poses), sensor_geometry(mona),
-                         transfer_table(mona), noise, out)
+    return ground_kernel(cue, cell_size, poses, heading_trig(poses),
+                         sensor_geometry(mona, sensing), transfer_table(sensing), noise, out)
 
 
 @numba.njit(cache=True)
@@ -217,6 +218,16 @@ def _scratch(n, k):  # pragma: no cover - jitted
     return (np.empty(n, dtype=np.int64), np.empty(columns * columns + 1, dtype=np.int64),
             np.empty(n, dtype=np.int64), np.empty((_BEAM_ROWS, k)),
             np.empty(k, dtype=np.bool_))
+
+
+@numba.njit(cache=True)
+def _batch_scratch(bounds, k):  # pragma: no cover - jitted
+    """:func:`_scratch` for the largest arena of a batch (arena e holds robots
+    ``bounds[e]:bounds[e + 1]``), shared by all of them."""
+    most = 0
+    for e in range(bounds.shape[0] - 1):
+        most = max(most, bounds[e + 1] - bounds[e])
+    return _scratch(most, k)
 
 
 # The rows of _cast's per-beam work array.
@@ -428,10 +439,7 @@ def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other and their own
     # arena's obstacles, by the one-arena kernel on their own rows: the same arithmetic, so
     # the same readings, as alone.
-    most = 0
-    for e in range(bounds.shape[0] - 1):
-        most = max(most, bounds[e + 1] - bounds[e])
-    work = _scratch(most, bearings.shape[1])
+    work = _batch_scratch(bounds, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         olo, ohi = obstacle_bounds[e], obstacle_bounds[e + 1]
@@ -446,10 +454,7 @@ def _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_r
                                 arena_side, ranges, is_robot):  # pragma: no cover - jitted
     # _proximity_many_kernel when no arena has obstacles: five arrays fewer to pass, and no
     # obstacle arrays to slice per arena.
-    most = 0
-    for e in range(bounds.shape[0] - 1):
-        most = max(most, bounds[e + 1] - bounds[e])
-    work = _scratch(most, bearings.shape[1])
+    work = _batch_scratch(bounds, bearings.shape[1])
     for e in range(bounds.shape[0] - 1):
         lo, hi = bounds[e], bounds[e + 1]
         _cast(poses[lo:hi], trig[lo:hi], body_radius[e], bearings[e], ir_range[e],

@@ -16,12 +16,10 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mona_controller.contract import WORLD_FRAME
 from mona_controller.messages import ns_to_stamp, set_stamp
-from swarm_world import arena_markers
 from swarm_world.arena import Arena
 from swarm_world.frames import poses_from_rows, yaw_to_quaternion
-
-MARKER_HEIGHT = 0.05  # m, the drawn height of a robot cylinder
-
+from swarm_world.messages import markers as arena_markers
+from swarm_world.messages.cue_map import cue_mono8, cue_percent
 
 # --- poses --------------------------------------------------------------------------------
 
@@ -58,18 +56,13 @@ def poses_from_pose_array(msg: PoseArray) -> np.ndarray:
 
 # --- the cue map ------------------------------------------------------------------------
 
-def cue_to_mono8(cue: np.ndarray) -> np.ndarray:
-    """The cue raster as uint8, rounded like the ground sensors read it (row 0 at y = 0)."""
-    return np.clip(np.rint(cue), 0, 255).astype(np.uint8)
-
-
 def cue_image(cue: np.ndarray, stamp_ns: int) -> Image:
     """The cue as a mono8 Image, row 0 at the **top** (max y), as image viewers expect."""
     rows, cols = cue.shape
     msg = Image(height=rows, width=cols, encoding='mono8', is_bigendian=0, step=cols)
     msg.header.frame_id = WORLD_FRAME
     msg.header.stamp = ns_to_stamp(stamp_ns)
-    msg.data = array.array('B', cue_to_mono8(cue)[::-1].tobytes())
+    msg.data = array.array('B', cue_mono8(cue)[::-1].tobytes())
     return msg
 
 
@@ -89,7 +82,7 @@ def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
     msg.info.resolution = float(cell_size)
     msg.info.width, msg.info.height = cols, rows
     msg.info.origin.orientation.w = 1.0
-    scaled = np.clip(np.rint(cue.astype(np.float64) * (100.0 / 255.0)), 0, 100).astype(np.int8)
+    scaled = cue_percent(cue)
     msg.data = array.array('b', scaled.tobytes())
     return msg
 
@@ -97,8 +90,9 @@ def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
 def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
                   stamp_ns: int) -> MarkerArray:
     """One cylinder per robot (ns 'robots', id = robot), coloured by its controller state
-    (:data:`swarm_world.arena_markers.STATE_COLOURS`: follow green, avoid orange, wait and
-    clean red, turn blue), as the embedded runner's :func:`swarm_metrics.world_cdr.markers_cdr`."""
+    (:data:`swarm_world.messages.markers.STATE_COLOURS`: follow green, avoid orange, wait and
+    clean red, turn blue), as the embedded runner's
+    :func:`swarm_world.messages.cdr.markers_cdr`."""
     out = MarkerArray()
     stamp = ns_to_stamp(stamp_ns)
     palette = [ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in arena_markers.STATE_COLOURS]
@@ -108,17 +102,17 @@ def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
         marker.header.frame_id = WORLD_FRAME
         marker.header.stamp = stamp
         marker.pose.position.x, marker.pose.position.y = x, y
-        marker.pose.position.z = MARKER_HEIGHT / 2
+        marker.pose.position.z = arena_markers.ROBOT_HEIGHT / 2
         marker.pose.orientation.w = 1.0
         marker.scale.x = marker.scale.y = 2 * body_radius
-        marker.scale.z = MARKER_HEIGHT
+        marker.scale.z = arena_markers.ROBOT_HEIGHT
         marker.color = palette[min(int(states[k]), last) if k < len(states) else 0]
         out.markers.append(marker)
     return out
 
 
 def obstacle_markers(arena: Arena) -> MarkerArray:
-    """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.arena_markers`),
+    """``/world/obstacles``: one grey marker per obstacle (:mod:`swarm_world.messages.markers`),
     stamp 0; no obstacles, no markers."""
     return _marker_array(arena_markers.obstacle_markers(arena), arena_markers.NAMESPACE,
                          arena_markers.COLOUR, 0)
@@ -127,7 +121,7 @@ def obstacle_markers(arena: Arena) -> MarkerArray:
 def source_markers(names: tuple[str, ...], positions: np.ndarray,
                    stamp_ns: int) -> MarkerArray:
     """``/world/sources``: one magenta sphere per source at ``positions`` [S, 2], every
-    marker stamped ``stamp_ns`` (:func:`swarm_world.arena_markers.source_markers`)."""
+    marker stamped ``stamp_ns`` (:func:`swarm_world.messages.markers.source_markers`)."""
     return _marker_array(arena_markers.source_markers(names, positions.tolist()),
                          arena_markers.SOURCES_NAMESPACE, arena_markers.SOURCE_COLOUR,
                          stamp_ns)
@@ -135,7 +129,7 @@ def source_markers(names: tuple[str, ...], positions: np.ndarray,
 
 def robot_states(states: np.ndarray) -> UInt8MultiArray:
     """``/world/robot_states``: each robot's controller state, robot i at index i (no layout
-    dimensions, as the embedded runner's :func:`swarm_metrics.world_cdr.states_cdr`)."""
+    dimensions, as the embedded runner's :func:`swarm_world.messages.cdr.states_cdr`)."""
     return UInt8MultiArray(data=np.asarray(states, dtype=np.uint8).tobytes())
 
 
@@ -147,7 +141,7 @@ def _marker_array(markers: tuple[arena_markers.MarkerData, ...], namespace: str,
     for data in markers:
         marker = Marker(ns=namespace, id=data.id, type=data.type, action=arena_markers.ADD,
                         text=data.text)
-        marker.header.frame_id = arena_markers.FRAME
+        marker.header.frame_id = WORLD_FRAME
         marker.header.stamp = stamp
         (marker.pose.position.x, marker.pose.position.y,
          marker.pose.position.z) = data.position

@@ -40,10 +40,10 @@ from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
-from swarm_metrics.bag_reader import BagError
-from swarm_metrics.bag_writer import CHUNK_PERIOD
+from swarm_metrics.bags.reader import BagError
+from swarm_metrics.bags.recording import Closed, Recorder, Row
+from swarm_metrics.bags.writer import CHUNK_PERIOD
 from swarm_metrics.metrics import metric_names
-from swarm_metrics.recording import Closed, Recorder, Row
 
 EXIT_WORLD_LOST = 3
 #: The topics of the other nodes that a default bag records (the node publishes /metrics/*

@@ -2,13 +2,13 @@
 
 A SIGKILLed writer leaves an MCAP file without its summary and footer, often ending inside a
 chunk; rosbags and most tools refuse such a file. :func:`recover_bag` reads it front to back
-with :class:`~swarm_metrics.bag_reader.McapScan` in tolerant mode (the mcap library's record
+with :class:`~swarm_metrics.bags.reader.McapScan` in tolerant mode (the mcap library's record
 parsers, each chunk checked against its CRC), keeps every message of every intact chunk, skips
 a damaged chunk whose frame is intact, stops where the framing breaks, and writes what it kept
-through :class:`~swarm_metrics.bag_writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
+through :class:`~swarm_metrics.bags.writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
 the seed and parameters in custom_data, and a ``recovered`` entry saying what was lost: each
 chunk not kept, with its message count and log-time span read from the file's own indexes
-(:mod:`swarm_metrics.losses`). A closed bag's summary also lends the scan its channels, so a
+(:mod:`swarm_metrics.bags.losses`). A closed bag's summary also lends the scan its channels, so a
 damaged chunk that defined channels costs only its own messages.
 
 The bytes are copied as they are (no re-serialization). PyPI's ``mcapfixindex`` only rebuilds
@@ -30,7 +30,8 @@ from typing import TypeVar
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
 
-from swarm_metrics.bag_reader import (
+from swarm_metrics.bags.losses import LostChunk, lost_chunks, read_index
+from swarm_metrics.bags.reader import (
     EPISODE,
     BagError,
     McapScan,
@@ -39,8 +40,8 @@ from swarm_metrics.bag_reader import (
     find_mcap,
     read_custom_data,
 )
-from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE, EpisodeBagWriter
-from swarm_metrics.losses import LostChunk, lost_chunks, read_index
+from swarm_metrics.bags.writer import CUSTOM_PREFIX, EpisodeBagWriter
+from swarm_world.messages.cdr import TYPESTORE
 
 T = TypeVar('T')
 SUFFIX = '_recovered'
@@ -91,7 +92,7 @@ class RecoveryReport:
 
     def summary(self) -> str:
         """One paragraph for the user: what was kept, then exactly what was lost."""
-        span = ('' if self.first_ns is None else
+        span = ('' if self.first_ns is None or self.last_ns is None else
                 f', log time {self.first_ns / 1e9:.3f} to {self.last_ns / 1e9:.3f} s')
         text = (f'recovered {self.messages} messages on {len(self.topics)} topics{span} from '
                 f'{self.source} into {self.target}')

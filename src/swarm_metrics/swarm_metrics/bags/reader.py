@@ -6,7 +6,7 @@ record parsers under a strict frame check, so every problem becomes a :class:`Ba
 says what is wrong, where, and what could be read:
 
 * a file cut short (a killed writer) raises :class:`TruncatedBagError`; ``mona-swarm recover``
-  (:mod:`swarm_metrics.recover`) rewrites everything before the cut as a valid bag;
+  (:mod:`swarm_metrics.bags.recover`) rewrites everything before the cut as a valid bag;
 * a damaged chunk (CRC, compression or framing) or a summary that disagrees with the data
   raises :class:`BagError`.
 
@@ -41,9 +41,10 @@ from mona_controller.contract import (
     SOURCES,
     STATUS,
 )
-from swarm_metrics.bag_writer import CUSTOM_PREFIX, TYPESTORE
-from swarm_world import arena_markers
+from swarm_metrics.bags.writer import CUSTOM_PREFIX
 from swarm_world.frames import poses_from_rows
+from swarm_world.messages import markers as arena_markers
+from swarm_world.messages.cdr import TYPESTORE
 from swarm_world.timing import crossed
 
 MAGIC = b'\x89MCAP0\r\n'
@@ -104,7 +105,7 @@ class ScanReport:
 
     def readable(self) -> str:
         """'N messages on K topics in C chunks (sim time a to b s)', for error messages."""
-        span = ('' if self.first_ns is None else
+        span = ('' if self.first_ns is None or self.last_ns is None else
                 f', log time {self.first_ns / 1e9:.3f} to {self.last_ns / 1e9:.3f} s')
         return (f'{self.messages} messages on {len(self.topics)} topics in {self.chunks} '
                 f'intact chunks ({self.good_bytes} of {self.size} bytes{span})')
@@ -280,10 +281,11 @@ class McapScan:
         for message in out:
             report.messages += 1
             report.topics[message.topic] += 1
-            if report.first_ns is None:
+            if report.first_ns is None or report.last_ns is None:
                 report.first_ns = report.last_ns = message.log_time
-            report.first_ns = min(report.first_ns, message.log_time)
-            report.last_ns = max(report.last_ns, message.log_time)
+            else:
+                report.first_ns = min(report.first_ns, message.log_time)
+                report.last_ns = max(report.last_ns, message.log_time)
         self._counts.update(item.channel_id for item in records if isinstance(item, Message))
         return out
 
@@ -481,7 +483,8 @@ def read_episode_bag(path: str | Path) -> EpisodeBag:
     mcap = find_mcap(path)
     scan = McapScan(mcap)
     bag = EpisodeBag(mcap, scan.report, {})
-    start_ns = sample_ns = previous = None
+    start_ns = previous = 0  # the announcement sets them, with sample_ns
+    sample_ns: int | None = None
     for message in scan:
         topic = message.topic
         if topic == POSES:
@@ -512,7 +515,9 @@ def read_episode_bag(path: str | Path) -> EpisodeBag:
             announcement = decode_json(message)
             if bag.announcement is None and 'shutdown' not in announcement:
                 bag.announcement = announcement
-                start_ns = previous = announcement.get('start_ns')
-                sample_ns = _sample_ns(announcement) if isinstance(start_ns, int) else None
+                start = announcement.get('start_ns')
+                if isinstance(start, int):
+                    start_ns = previous = start
+                    sample_ns = _sample_ns(announcement)
     bag.custom = read_custom_data(path) or scan.report.custom
     return bag

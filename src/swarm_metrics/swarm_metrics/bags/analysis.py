@@ -19,11 +19,12 @@ import numpy as np
 
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.mona import MonaParams
-from mona_controller.schema import from_mapping
-from swarm_metrics.bag_reader import BagError, EpisodeBag
+from mona_controller.schema import from_mapping, moved_keys, relocate
+from swarm_metrics.bags.reader import BagError, EpisodeBag
 from swarm_metrics.metrics import MetricsParams, metric_names, sample_field
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
+from swarm_world.sensing.params import SensingParams
 from swarm_world.timing import crossed, steps_for
 
 #: Later than any sim time.
@@ -46,8 +47,9 @@ class EpisodeSetup:
     initial_poses: np.ndarray  #: [N, 3]
     world: WorldParams
     mona: MonaParams
+    sensing: SensingParams
     metrics: MetricsParams
-    parameters: dict  #: every section, as announced
+    parameters: dict  #: every section, as announced (a key that moved since at its new key)
 
     @classmethod
     def from_announcement(cls, announcement: dict) -> EpisodeSetup:
@@ -60,7 +62,9 @@ class EpisodeSetup:
             announced = Announcement.from_dict(announcement)
             if announced.shutdown:
                 raise AnnouncementError('a shutdown announcement announces no episode')
-            parameters = announced.parameters
+            # An announcement recorded before keys moved holds them at their old places.
+            parameters = relocate(announced.parameters, moved_keys(SensingParams, 'sensing.'),
+                                  warn=False)
             setup = cls(
                 episode=announced.episode, seed=announced.seed,
                 population=announced.population, duration=announced.duration,
@@ -68,6 +72,7 @@ class EpisodeSetup:
                 initial_poses=np.asarray(announced.poses, dtype=np.float64).reshape(-1, 3),
                 world=from_mapping(WorldParams, parameters.get('world'), 'world.'),
                 mona=from_mapping(MonaParams, parameters.get('mona'), 'mona.'),
+                sensing=from_mapping(SensingParams, parameters.get('sensing'), 'sensing.'),
                 metrics=from_mapping(MetricsParams, parameters.get('metrics'), 'metrics.'),
                 parameters=parameters)
         except ContractError as error:
@@ -101,7 +106,7 @@ class MetricsReplica:
 
     def __init__(self, setup: EpisodeSetup) -> None:
         self.setup = setup
-        self.field = CueField(setup.world, setup.mona)
+        self.field = CueField(setup.world, setup.mona, setup.sensing)
         self.initial_mean = self.field.initial_mean
         self.late_events = 0  #: cleaning events that arrived after their time was sampled
         self.poses: np.ndarray = setup.initial_poses.copy()  #: the latest poses

@@ -40,10 +40,11 @@ from mona_controller.contract import (
     metric_topic,
     topic_of,
 )
-from swarm_metrics.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
-from swarm_metrics.bag_reader import BagError, RawMessage, decode, decode_json, poses_of
-from swarm_metrics.bag_writer import EpisodeBagWriter, offered
+from swarm_metrics.bags.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
+from swarm_metrics.bags.reader import BagError, RawMessage, decode, decode_json, poses_of
+from swarm_metrics.bags.writer import EpisodeBagWriter, offered
 from swarm_metrics.metrics import metric_names
+from swarm_world.messages.cdr import float64_cdr
 
 STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type
 #: Messages of an episode not yet announced that are kept for its bag (see Recorder.route).
@@ -70,11 +71,6 @@ def markers_stamp_ns(data: bytes) -> int | None:
         return None
     sec, nanosec = struct.unpack_from('>iI' if big else '<iI', data, 8)
     return sec * 1_000_000_000 + nanosec
-
-
-def float64_cdr(value: float) -> bytes:
-    """A std_msgs/Float64 serialized as rclpy does (little-endian CDR)."""
-    return b'\x00\x01\x00\x00' + struct.pack('<d', value)
 
 
 @dataclasses.dataclass

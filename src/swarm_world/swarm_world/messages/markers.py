@@ -13,8 +13,8 @@ time, as RViz and Foxglove take it), grey (:data:`COLOUR`), :data:`HEIGHT` tall:
   above), then two triangles per side wall (2 n), so 3 n - 2 triangles for n vertices.
 
 :func:`obstacle_markers` makes the markers; the world node
-(:func:`swarm_world.world_messages.obstacle_markers`) and the embedded runner
-(:func:`swarm_metrics.world_cdr.obstacles_cdr`) build their messages from it, so both
+(:func:`swarm_world.ros.world_messages.obstacle_markers`) and the embedded runner
+(:func:`swarm_world.messages.cdr.obstacles_cdr`) build their messages from it, so both
 publish and record the same. :func:`obstacles_from_markers` turns decoded markers (rclpy's,
 rosbags', mcap-ros2-support's: anything with the message's fields) back into shapes, for the
 videos.
@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable
+from typing import Any
 
-from mona_controller.contract import WORLD_FRAME
 from swarm_world.arena import Arena, Disc, Obstacle, Polygon, Rect
 
 NAMESPACE = 'obstacles'
@@ -41,7 +41,6 @@ NAMESPACE = 'obstacles'
 HEIGHT = 0.1
 #: RGBA of every obstacle: the grey the videos fill them with.
 COLOUR = (0.5, 0.5, 0.5, 1.0)
-FRAME = WORLD_FRAME
 #: visualization_msgs/Marker's type and action codes used here.
 CUBE, SPHERE, CYLINDER, TRIANGLE_LIST = 1, 2, 3, 11
 ADD = 0
@@ -50,6 +49,8 @@ SOURCES_NAMESPACE = 'sources'
 SOURCE_SIZE = 0.08
 #: RGBA of every source marker.
 SOURCE_COLOUR = (0.85, 0.0, 0.85, 1.0)
+#: The drawn height of a robot's cylinder marker (m) on /world/markers, in both runners.
+ROBOT_HEIGHT = 0.05
 #: RGBA per controller state (FOLLOW, AVOID, WAIT, TURN of mona_controller.controller): the
 #: robot markers' colours in both runners (/world/markers) and the videos'.
 STATE_COLOURS = ((0.20, 0.75, 0.25, 1.0),  # follow: green
@@ -103,7 +104,7 @@ def prism(vertices: tuple[tuple[float, float], ...]) -> tuple[Point, ...]:
     return tuple(points)
 
 
-def obstacles_from_markers(markers: Iterable[object]) -> tuple[Obstacle, ...]:
+def obstacles_from_markers(markers: Iterable[Any]) -> tuple[Obstacle, ...]:
     """The obstacles that decoded ``/world/obstacles`` markers show, in the markers' order.
 
     Markers of another namespace, another action than ADD or another type are left out. A
@@ -137,7 +138,7 @@ def source_markers(names: Iterable[str], positions: Iterable[Iterable[float]]
                  for k, (name, (x, y)) in enumerate(zip(names, positions)))
 
 
-def sources_from_markers(markers: Iterable[object]) -> tuple[tuple[str, float, float], ...]:
+def sources_from_markers(markers: Iterable[Any]) -> tuple[tuple[str, float, float], ...]:
     """(name, x, y) of each source that decoded ``/world/sources`` markers show, in order
     (markers of another namespace or action left out)."""
     return tuple((marker.text, marker.pose.position.x, marker.pose.position.y)

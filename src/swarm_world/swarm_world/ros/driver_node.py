@@ -43,7 +43,8 @@ from swarm_world.driver.tracked import TrackedWorld
 from swarm_world.driver.wheels import to_permille, twist_to_wheels
 from swarm_world.frames import yaw_from_quaternion
 from swarm_world.params import WorldNodeParams, WorldParams
-from swarm_world.world_node import WorldNode
+from swarm_world.ros.world_node import WorldNode
+from swarm_world.sensing.params import SensingParams
 
 DRIVER_STATUS = '/driver/status'
 DRIVER_FILE = 'driver.json'
@@ -78,8 +79,8 @@ class DriverNode(WorldNode):
         if self.mona.ir_count != 5:
             raise ParameterError(f'mona.ir_count = {self.mona.ir_count}: a Mona reports 5 IR '
                                  'sensors (docs/link.md, "Telemetry")')
-        self.world = TrackedWorld(self.params, self.mona, self.driver.calibration(),
-                                  self.driver.robot_margin)
+        self.world = TrackedWorld(self.params, self.mona, self.sensing,
+                                  self.driver.calibration(), self.driver.robot_margin)
         # Load the compiled sensor kernels now, not in the first tick of an episode.
         self.world.reset(np.array([[0.5, 0.5, 0.0], [0.7, 0.5, 0.0]]))
         self.world.sense()
@@ -270,7 +271,7 @@ def main(args: Sequence[str] | None = None) -> int:
     argv = list(sys.argv if args is None else args)
     parse_node_args(node_parser('driver_node', __doc__.split('\n')[0], sections={
         '': WorldNodeParams, 'world.': WorldParams, 'mona.': MonaParams,
-        'driver.': DriverParams}), argv[1:])
+        'sensing.': SensingParams, 'driver.': DriverParams}), argv[1:])
     rclpy.init(args=argv)
     node = None
     status = 1

@@ -1,4 +1,4 @@
-"""The command latency (``mona.command_latency``): a delay line between the controllers'
+"""The command latency (``sensing.command_latency``): a delay line between the controllers'
 commands and the wheels, as plain Python (no ROS).
 
 A real Mona gets its commands over a radio link that takes time; the simulation can give the

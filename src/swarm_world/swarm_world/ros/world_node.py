@@ -56,9 +56,7 @@ from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
-from swarm_world.timing import crossed, steps_for
-from swarm_world.world import World
-from swarm_world.world_messages import (
+from swarm_world.ros.world_messages import (
     PoseArrayFiller,
     cue_grid,
     cue_image,
@@ -67,6 +65,9 @@ from swarm_world.world_messages import (
     robot_states,
     source_markers,
 )
+from swarm_world.sensing.params import SensingParams
+from swarm_world.timing import crossed, steps_for
+from swarm_world.world import World
 
 FINAL_FILE = 'world_final.npz'
 #: Wall seconds between repeats of step 0's readings to robots that have not answered yet.
@@ -140,8 +141,9 @@ class WorldNode(Node):
         declare_plugins(self)  # before world.layout, which may name a plug-in's layout
         self.params = declare_section(self, WorldParams, 'world.')
         self.mona = declare_section(self, MonaParams, 'mona.')
+        self.sensing = declare_section(self, SensingParams, 'sensing.')
         self.options = declare_section(self, WorldNodeParams)
-        self.world = World(self.params, self.mona)
+        self.world = World(self.params, self.mona, self.sensing)
         self.world.warm_up()  # the compiled kernels now, not in an episode's first step
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.finished = Future()  #: done on the shutdown announcement, or a fatal error
@@ -248,7 +250,8 @@ class WorldNode(Node):
         if announcement.start_ns < self.time_ns:
             return (f'start_ns {announcement.start_ns} is before the world time '
                     f'{self.time_ns}: sim time must not run backwards')
-        for section, mine in (('world', self.params), ('mona', self.mona)):
+        for section, mine in (('world', self.params), ('mona', self.mona),
+                              ('sensing', self.sensing)):
             theirs = announcement.parameters.get(section)
             # As parameters (defaults applied), naming the keys that differ.
             differ = [] if theirs is None else differences(mine, theirs, f'{section}.')
@@ -574,7 +577,8 @@ class WorldNode(Node):
                  steps=np.int64(self.world.steps), time_ns=np.int64(self.time_ns),
                  start_ns=np.int64(self.start_ns),
                  parameters=json.dumps({'world': to_mapping(self.params),
-                                        'mona': to_mapping(self.mona)}))
+                                        'mona': to_mapping(self.mona),
+                                        'sensing': to_mapping(self.sensing)}))
         os.replace(partial_path, folder / FINAL_FILE)
 
 
@@ -582,7 +586,8 @@ def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``world_node [--ros-args ...]``; exits when the run is over."""
     argv = list(sys.argv if args is None else args)
     parse_node_args(node_parser('world_node', __doc__.split('\n')[0], sections={
-        '': WorldNodeParams, 'world.': WorldParams, 'mona.': MonaParams}), argv[1:])
+        '': WorldNodeParams, 'world.': WorldParams, 'mona.': MonaParams,
+        'sensing.': SensingParams}), argv[1:])
     rclpy.init(args=argv)
     node = None
     status = 1  # an exception that escapes is a failure, also if teardown then hangs

@@ -15,8 +15,8 @@ from std_msgs.msg import String
 
 from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
-from swarm_world.driver.driver_node import TRACKER_QOS
-from swarm_world.world_messages import PoseArrayFiller
+from swarm_world.ros.driver_node import TRACKER_QOS
+from swarm_world.ros.world_messages import PoseArrayFiller
 
 
 class Tracker:

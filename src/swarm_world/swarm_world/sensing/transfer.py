@@ -21,7 +21,7 @@ import functools
 
 import numpy as np
 
-from mona_controller.mona import MonaParams
+from swarm_world.sensing.params import SensingParams
 
 #: Readings tabulated at cue 0, 255 / (KNOTS - 1), ..., 255.
 KNOTS = 1021
@@ -34,29 +34,29 @@ def lookup(table: tuple[float, ...], x: np.ndarray) -> np.ndarray:
     return np.interp(x, inputs, outputs)
 
 
-def webots_reading(cue: np.ndarray, mona: MonaParams) -> np.ndarray:
+def webots_reading(cue: np.ndarray, sensing: SensingParams) -> np.ndarray:
     """The calibrated reading (not yet rounded or clipped) of a Webots infra-red ground
-    sensor over cue values ``cue`` (0..255), with ``mona``'s height, lookup table, reflection
-    baseline, roughness and calibration."""
+    sensor over cue values ``cue`` (0..255), with ``sensing``'s height, lookup table,
+    reflection baseline, roughness and calibration."""
     red = np.clip(np.asarray(cue, dtype=np.float64) / 255.0, 0.0, 1.0)
-    baseline = mona.ground_reflection
-    factor = baseline + (1.0 - baseline) * red * (1.0 - 0.5 * mona.ground_roughness)
-    raw = lookup(mona.ground_lut, mona.ground_height / factor)
-    black, white = mona.ground_calibration
+    baseline = sensing.ground_reflection
+    factor = baseline + (1.0 - baseline) * red * (1.0 - 0.5 * sensing.ground_roughness)
+    raw = lookup(sensing.ground_lut, sensing.ground_height / factor)
+    black, white = sensing.ground_calibration
     return (black - raw) * 255.0 / (black - white)
 
 
 @functools.lru_cache(maxsize=64)
-def transfer_table(mona: MonaParams) -> np.ndarray:
+def transfer_table(sensing: SensingParams) -> np.ndarray:
     """The readings at :data:`KNOTS` evenly spaced cue values, float64, read-only; empty for
     the ``linear`` transfer (the kernel then reads the cue itself, as it always did)."""
-    if mona.ground_transfer == 'linear':
+    if sensing.ground_transfer == 'linear':
         table = np.zeros(0)
     else:
         cue = np.linspace(0.0, 255.0, KNOTS)
-        if mona.ground_transfer == 'webots':
-            table = webots_reading(cue, mona)
+        if sensing.ground_transfer == 'webots':
+            table = webots_reading(cue, sensing)
         else:  # 'table': the user's points, linear between them
-            table = lookup(mona.ground_table, cue)
+            table = lookup(sensing.ground_table, cue)
     table.flags.writeable = False
     return table
