@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mona_controller.controllers import states_of
+from mona_controller.controllers import CONTROLLERS, states_of
 from mona_controller.schema import ParameterError
 from swarm_supervisor.cli import command, main
 from swarm_supervisor.config import load_config
@@ -22,8 +22,16 @@ sys.path.insert(0, str(ROOT))  # the examples are imported as the package `examp
 from examples import solitary_cleaner  # noqa: E402
 
 
-def test_a_controller_of_ones_own_runs_alone_and_in_a_batch():
+@pytest.fixture
+def solitary():
+    """The kind ``solitary`` registered for one test (a kind adds a section to every
+    parameter set built while it is registered)."""
     solitary_cleaner.register()
+    yield
+    del CONTROLLERS['solitary']
+
+
+def test_a_controller_of_ones_own_runs_alone_and_in_a_batch(solitary):
     base = load_config().replace(episode={'population': 20, 'duration': 60.0, 'seed': 3},
                                  controller={'kind': 'solitary'})
     alone = run_episode(base)
@@ -44,8 +52,7 @@ def test_a_controller_of_ones_own_runs_alone_and_in_a_batch():
     assert np.array_equal(batched[0].final_poses, alone.final_poses)
 
 
-def test_a_controller_of_ones_own_declares_its_parameters_and_states(tmp_path):
-    solitary_cleaner.register()
+def test_a_controller_of_ones_own_declares_its_parameters_and_states(tmp_path, solitary):
     path = tmp_path / 'solitary.yaml'
     path.write_text('/**:\n  ros__parameters:\n    controller:\n      kind: solitary\n'
                     '      solitary: {clean_above: 80, cooldown: 5.0}\n')
