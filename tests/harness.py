@@ -5,12 +5,12 @@ scripts/swarm.sh runs (swarm_supervisor.system.processes); tests/conftest.py wra
 
 from __future__ import annotations
 
+import re
 import subprocess
 from pathlib import Path
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
 from swarm_supervisor.system.processes import (  # noqa: F401
-    PROFILE,
     domain_shm_files,
     group_pids,
     groups_shm,
@@ -25,6 +25,21 @@ from swarm_supervisor.system.processes import (  # noqa: F401
 )
 
 REPO = Path(__file__).resolve().parents[1]
+#: A fenced block of a Markdown page: its language and its text.
+BLOCK = re.compile(r'^```(\w*)\n(.*?)^```', re.MULTILINE | re.DOTALL)
+
+
+def recipes(page: str) -> tuple[dict[str, str], list[str]]:
+    """docs/extending.md's recipes: its files (a block whose first line is ``# my_swarm/<name>``)
+    and its command blocks (those that begin with ``cd my_swarm``), in page order."""
+    files, commands = {}, []
+    for _, text in BLOCK.findall(page):
+        first = text.split('\n', 1)[0]
+        if first.startswith('# my_swarm/'):
+            files[first[2:].strip()] = text
+        elif first.strip() == 'cd my_swarm':
+            commands.append(text)
+    return files, commands
 
 
 class Processes:

@@ -1,3 +1,5 @@
+from glob import glob
+
 from setuptools import find_packages, setup
 
 package_name = 'swarm_supervisor'
@@ -6,14 +8,19 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    # The paper's claims (swarm_supervisor.analysis.claims reads them with importlib.resources).
-    package_data={package_name: ['paper_claims.yaml']},
+    # The paper's claims (swarm_supervisor.analysis.claims reads them with importlib.resources,
+    # beside the module: package data of the analysis sub-package).
+    package_data={package_name + '.analysis': ['paper_claims.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        # The default parameter file (a link to ros_ws/config/mona_swarm.yaml), so that an
-        # installed package finds it without the source tree.
-        ('share/' + package_name + '/config', ['config/mona_swarm.yaml']),
+        # The shipped configuration (links into ros_ws/config: the default parameter file, the
+        # Fast DDS profile, the Foxglove layout, the profiles of Monas), so that an installed
+        # package finds it without the source tree (swarm_supervisor.config.shipped).
+        ('share/' + package_name + '/config',
+         ['config/mona_swarm.yaml', 'config/fastdds_localhost.xml',
+          'config/foxglove_layout.json']),
+        ('share/' + package_name + '/config/profiles', sorted(glob('config/profiles/*.yaml'))),
     ],
     install_requires=[
         'numpy',

@@ -7,7 +7,9 @@ Options (tests/conformance/README.md):
 - ``--world-cmd NAME-OR-COMMAND``: a name of implementations.IMPLEMENTATIONS (default: the
   first, ``world``) or a command line with ``{domain}``, ``{params}``, ``{population}``;
 - ``--world-mode lockstep|realtime``: for a command line, which Stepping rules it follows
-  (realtime skips the tests marked ``lockstep``).
+  (realtime skips the tests marked ``lockstep``);
+- ``--params FILE``: a parameter file of one's own instead of the shipped one, e.g. one whose
+  ``plugins:`` name a controller kind the controller nodes run (docs/extending.md).
 """
 
 from __future__ import annotations
@@ -17,11 +19,16 @@ import math
 import os
 import shlex
 import time
+from pathlib import Path
 
 import pytest
 import rclpy
 import yaml
 from rclpy.executors import SingleThreadedExecutor
+
+from mona_controller.plugins import KEY as PLUGINS
+from mona_controller.schema import ParameterError
+from swarm_supervisor.config import load_config, write_ros_yaml
 
 from harness import REPO, Processes, private_domain, ros_environment
 from implementations import IMPLEMENTATIONS, Implementation, resolve
@@ -49,13 +56,31 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                     help='implementation name or command line (env CONFORMANCE_WORLD)')
     group.addoption('--world-mode', default=None, choices=('lockstep', 'realtime'),
                     help="a command line's stepping mode (default lockstep)")
+    group.addoption('--params', default=os.environ.get('CONFORMANCE_PARAMS'),
+                    help='parameter file (default: the shipped one; env CONFORMANCE_PARAMS)')
 
 
 def option(config: pytest.Config, name: str) -> str | None:
     """A suite option; a bare ``pytest`` from the root (``make test``) does not load this
     conftest early enough to add them: then the environment or the default."""
-    fallback = os.environ.get('CONFORMANCE_WORLD') if name == '--world-cmd' else None
+    fallback = {'--world-cmd': os.environ.get('CONFORMANCE_WORLD'),
+                '--params': os.environ.get('CONFORMANCE_PARAMS')}.get(name)
     return config.getoption(name, default=fallback)
+
+
+def parameter_file(config: pytest.Config, folder: Path) -> Path:
+    """The run's parameter file: the shipped one, or ``--params`` written out whole with its
+    plug-ins' and files' paths absolute (every process of the run reads the same file, from
+    any directory; a bad file ends the session naming it, exit status 2)."""
+    given = option(config, '--params')
+    if not given:
+        return PARAMS
+    try:
+        loaded = load_config(given)
+    except ParameterError as error:
+        pytest.exit(f'--params: {error}', returncode=2)
+    write_ros_yaml(loaded, folder / 'params.yaml')
+    return folder / 'params.yaml'
 
 
 def implementation(config: pytest.Config) -> tuple[str, Implementation]:
@@ -159,11 +184,11 @@ class Run:
         return ended[-1]
 
 
-def start_world(processes: Processes, template: str, domain: int):
+def start_world(processes: Processes, template: str, domain: int, params: Path = PARAMS):
     """Start the implementation's command line; a command that cannot be started ends the
     session with a message naming what is wrong (exit status 2), not a traceback."""
     try:
-        command = shlex.split(template.format(domain=domain, params=PARAMS,
+        command = shlex.split(template.format(domain=domain, params=params,
                                               population=POPULATION))
     except (KeyError, IndexError, ValueError) as error:
         pytest.exit(f'--world-cmd {template!r}: {error!r}; the placeholders are {{domain}}, '
@@ -181,8 +206,10 @@ def start_world(processes: Processes, template: str, domain: int):
 def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Run:
     """Start the implementation and the controllers, play the scenario, stop everything."""
     name, chosen = implementation(request.config)
-    params = yaml.safe_load(PARAMS.read_text())['/**']['ros__parameters']
     folder = tmp_path_factory.mktemp('conformance')
+    path = parameter_file(request.config, folder)
+    params = yaml.safe_load(path.read_text())['/**']['ros__parameters']
+    params.pop(PLUGINS, None)  # the probe announces the parameters alone
     with private_domain() as domain, pytest.MonkeyPatch.context() as patch:
         env = ros_environment(domain)
         for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
@@ -190,10 +217,10 @@ def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
         for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY'):
             patch.delenv(key, raising=False)
         processes = Processes(env, folder)
-        world = start_world(processes, chosen.command, domain)
+        world = start_world(processes, chosen.command, domain, path)
         robots = f'{CONTROLLED[0]}-{CONTROLLED[-1]}'
         controllers = processes.spawn(['mona_controller_node', '--robots', robots,
-                                       '--ros-args', '--params-file', str(PARAMS)],
+                                       '--ros-args', '--params-file', str(path)],
                                       'controllers')
         context = init_context(domain)
         probe = Probe(params, context=context)

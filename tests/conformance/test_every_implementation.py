@@ -1,6 +1,8 @@
 """Every implementation the table names passes the suite: ``make test`` runs the rules on the
 default world directly, and here on each other entry of implementations.IMPLEMENTATIONS (so
-adding a line there puts it under CI), each in a pytest of its own."""
+adding a line there puts it under CI), each in a pytest of its own; and the default world
+with a user's controller kind, the plug-in of docs/extending.md, as its controller nodes
+(``--params``)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from harness import REPO, recipes
 from implementations import IMPLEMENTATIONS
 
 pytestmark = [pytest.mark.ros, pytest.mark.selftest]
@@ -31,3 +34,19 @@ def test_the_implementation_passes_every_rule(name):
         capture_output=True, text=True, timeout=600, cwd=HERE.parents[1])
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
+
+
+def test_a_users_controller_kind_passes_every_rule(tmp_path: Path):
+    files, _ = recipes((REPO / 'docs' / 'extending.md').read_text())
+    (tmp_path / 'shy.py').write_text(files['my_swarm/shy.py'])
+    params = tmp_path / 'params.yaml'
+    params.write_text('/**:\n  ros__parameters:\n    plugins: [shy.py]\n'
+                      '    controller: {kind: shy}\n')
+    result = subprocess.run(
+        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
+         '-p', 'no:cacheprovider', '--params', str(params), '--basetemp', str(tmp_path / 'run')],
+        capture_output=True, text=True, timeout=600, cwd=HERE.parents[1])
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
+    assert ' passed' in result.stdout.splitlines()[-1]
+    logs = list((tmp_path / 'run').rglob('controllers.log'))  # the kind the nodes ran
+    assert logs and all('start 0 ns, active (shy)' in log.read_text() for log in logs), logs

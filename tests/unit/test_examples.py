@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -110,26 +109,3 @@ def test_an_obstacle_layout_of_ones_own_runs_and_keeps_robots_out(tmp_path):
     # Every robot's centre at least its radius from every obstacle (less the collision slop
     # and one step's travel, see tests/unit/test_arena.py).
     assert min(arena.clearance(x, y) for x, y in final[:, :2]) > 0.04 - 0.0048
-
-
-def test_a_metric_of_ones_own_reaches_the_csv_and_the_bag(tmp_path):
-    out = tmp_path / 'mine'
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MONA_SWARM_METRICS='examples.cue_under_robots')
-    done = subprocess.run([str(Path(sys.executable).with_name('mona-swarm')), 'run',
-                           '--population', '6', '--duration', '20', '--out', str(out),
-                           '--bag'], capture_output=True, text=True, timeout=300, env=env)
-    assert done.returncode == 0, done.stderr
-    header, *rows = (out / 'metrics.csv').read_text().splitlines()
-    assert header.split(',')[-1] == 'cue_under_robots'
-    values = [float(row.split(',')[-1]) for row in rows]
-    assert len(values) == 21 and all(0.0 <= v <= 255.0 for v in values)
-    # The bag carries its topic too (the run checks the bag's online samples equal the rows).
-    assert b'/metrics/cue_under_robots' in (out / 'bag' / 'bag.mcap').read_bytes()
-
-
-def test_the_metric_example_runs_as_a_script():
-    done = subprocess.run([sys.executable, str(ROOT / 'examples' / 'cue_under_robots.py')],
-                          capture_output=True, text=True, timeout=300, cwd=ROOT,
-                          env=dict(os.environ, PYTHONPATH=str(ROOT)))
-    assert done.returncode == 0, done.stderr
-    assert 'under the robots' in done.stdout

@@ -34,7 +34,7 @@ def test_defaults():
     parsed = options()
     assert (parsed.episodes, parsed.mode, parsed.per_process, parsed.timeout) == \
         (1, 'lockstep', 1, 0)
-    assert parsed.config == DEFAULT_CONFIG and parsed.params == []
+    assert parsed.config is None and parsed.params == []  # the shipped file, found at launch
     assert parsed.population is None and parsed.start_timeout is None
 
 

@@ -2,11 +2,11 @@
 through the public mechanism, without touching any other file, reaches every consumer.
 
 The added metric is the mean cue under the robots (the cell under each robot's centre). It is
-written as a plugin module in ``tmp_path`` and used two ways: named by the environment
-variable ``MONA_SWARM_METRICS`` for real ``mona-swarm run --bag`` and ``mona-swarm analyze``
-processes (as a study's spawned workers or the metrics node would load it), and imported in
-this process (which registers it) for the completeness checks, the live view's channels, the
-video's plots, the claims and the study's figures.
+written as a plug-in file in ``tmp_path`` and used two ways: named by a parameter file's
+``plugins:`` list for real ``mona-swarm run --bag`` and ``mona-swarm analyze`` processes (the
+analysis loads it from the bag's record), and imported in this process (which registers it)
+for the completeness checks, the live view's channels, the video's plots, the claims and the
+study's figures. ``MONA_SWARM_METRICS``, the deprecated way to name it, still works.
 """
 
 from __future__ import annotations
@@ -73,13 +73,18 @@ def registered(plugin_dir: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Me
         sys.modules.pop('under_robots', None)
 
 
-def mona_swarm(plugin_dir: Path, *args: object) -> subprocess.CompletedProcess:
-    """The real command, with the plugin named where every process of a run looks for it."""
-    env = dict(os.environ, MONA_SWARM_METRICS='under_robots',
-               PYTHONPATH=os.pathsep.join(filter(None, (str(plugin_dir),
-                                                        os.environ.get('PYTHONPATH')))))
+def parameter_file(plugin_dir: Path) -> Path:
+    """A parameter file beside the plug-in that names it (relative to the file)."""
+    path = plugin_dir / 'params.yaml'
+    path.write_text('/**:\n  ros__parameters:\n    plugins: [under_robots.py]\n')
+    return path
+
+
+def mona_swarm(*args: object, env: dict[str, str] | None = None,
+               cwd: Path = ROOT) -> subprocess.CompletedProcess:
+    """The real command."""
     return subprocess.run([MONA_SWARM, *map(str, args)], capture_output=True, text=True,
-                          env=env, cwd=ROOT, timeout=600)
+                          env=env, cwd=cwd, timeout=600)
 
 
 def read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
@@ -132,12 +137,23 @@ def test_a_name_is_registered_once_and_the_papers_stay():
     assert metrics.metric_names() == PAPER[1:]
 
 
-def test_a_plugin_that_cannot_be_imported_is_named(tmp_path: Path):
-    env = dict(os.environ, MONA_SWARM_METRICS='no_such_metrics_module')
-    done = subprocess.run([sys.executable, '-c', 'import swarm_metrics.metrics'],
-                          capture_output=True, text=True, env=env, timeout=120)
-    assert done.returncode != 0
-    assert "MONA_SWARM_METRICS names 'no_such_metrics_module'" in done.stderr
+def test_the_deprecated_variable_still_names_a_metric_module(plugin_dir: Path, tmp_path: Path):
+    env = dict(os.environ, MONA_SWARM_METRICS='under_robots',
+               PYTHONPATH=os.pathsep.join(filter(None, (str(plugin_dir),
+                                                        os.environ.get('PYTHONPATH')))))
+    done = mona_swarm('run', '--population', 4, '--duration', 3, '--out', tmp_path / 'old',
+                      env=env)
+    assert done.returncode == 0, done.stderr
+    assert 'MONA_SWARM_METRICS is deprecated' in done.stderr
+    assert read_csv(tmp_path / 'old' / 'metrics.csv')[0] == [*PAPER, NAME]
+    [plugin] = json.loads((tmp_path / 'old' / 'episode.json').read_text())['plugins']
+    assert (plugin['module'], plugin['origin']) == ('under_robots', 'MONA_SWARM_METRICS')
+    # A module it names that cannot be imported: one line, exit 2, nothing written.
+    env['MONA_SWARM_METRICS'] = 'no_such_metrics_module'
+    done = mona_swarm('run', '--out', tmp_path / 'never', env=env)
+    assert done.returncode == 2 and not (tmp_path / 'never').exists()
+    assert "MONA_SWARM_METRICS: cannot import 'no_such_metrics_module'" in done.stderr
+    assert 'Traceback' not in done.stderr
 
 
 # --- a metric added in one place reaches every consumer ------------------------------------
@@ -145,8 +161,8 @@ def test_a_plugin_that_cannot_be_imported_is_named(tmp_path: Path):
 def test_an_added_metric_is_in_metrics_csv_the_bag_analyze_and_the_checks(
         plugin_dir: Path, tmp_path: Path, registered: Metric):
     run = tmp_path / 'run'
-    done = mona_swarm(plugin_dir, 'run', '--population', 6, '--duration', 12, '--seed', 4,
-                      '--out', run, '--bag')
+    done = mona_swarm('run', '--config', parameter_file(plugin_dir), '--population', 6,
+                      '--duration', 12, '--seed', 4, '--out', run, '--bag')
     assert done.returncode == 0, done.stderr  # the bag's online samples equal the rows
     header, rows = read_csv(run / 'metrics.csv')
     assert header == [*PAPER, NAME]  # after the paper's four, which keep their order
@@ -158,9 +174,10 @@ def test_an_added_metric_is_in_metrics_csv_the_bag_analyze_and_the_checks(
     assert [value for _, value in bag.metrics[NAME]] == values
     assert bag.report.topics[f'/metrics/{NAME}'] == 13
 
-    # mona-swarm analyze recomputes it from the bag, and its checks pass.
+    # mona-swarm analyze recomputes it from the bag, loading the plug-in the bag records (run
+    # from another folder: the path is absolute), and its checks pass.
     analysed = tmp_path / 'analysed'
-    done = mona_swarm(plugin_dir, 'analyze', run / 'bag', '--out', analysed)
+    done = mona_swarm('analyze', run / 'bag', '--out', analysed, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     header, rows = read_csv(analysed / 'metrics.csv')
     assert header == [*PAPER, NAME]

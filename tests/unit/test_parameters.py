@@ -83,12 +83,12 @@ def test_parameter_reference_matches_the_schema():
 
 def test_the_default_file_is_found_installed_and_its_absence_is_an_error(tmp_path, monkeypatch):
     from swarm_supervisor import config as config_module
-    monkeypatch.setattr(config_module, 'DEFAULT_CONFIG', tmp_path / 'no_source_tree.yaml')
+    monkeypatch.setattr(config_module, 'SOURCE_CONFIG', tmp_path / 'no_source_tree')
     monkeypatch.setattr(config_module.sys, 'prefix', str(tmp_path / 'venv'))
     monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path / 'colcon_install'))
-    with pytest.raises(ParameterError, match='default parameter file mona_swarm.yaml is missing'):
+    with pytest.raises(ParameterError, match='the shipped mona_swarm.yaml is missing'):
         config_module.load_config()
-    installed = tmp_path / 'colcon_install' / config_module.INSTALLED_CONFIG
+    installed = tmp_path / 'colcon_install' / config_module.INSTALLED_CONFIG / 'mona_swarm.yaml'
     installed.parent.mkdir(parents=True)
     write_ros_yaml(SwarmConfig().replace(episode={'seed': 77}), installed)
     assert config_module.default_config_path() == installed

@@ -136,8 +136,9 @@ def test_overwrite_replaces_the_folder_whole(tmp_path: Path):
 
 def test_the_default_output_folder_is_always_new(tmp_path: Path, monkeypatch):
     from swarm_supervisor.system import out_folder
-    monkeypatch.setattr(out_folder, 'REPO', tmp_path)
+    monkeypatch.chdir(tmp_path)
     first = out_folder.default_out()
+    assert first.parent == tmp_path / 'results'
     first.mkdir(parents=True)
     second = out_folder.default_out()
     assert second != first and not second.exists()

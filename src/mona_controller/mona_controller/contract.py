@@ -219,6 +219,9 @@ class Announcement:
     poses: tuple[tuple[float, float, float], ...] = ()  #: [x, y, yaw] per robot, world frame
     parameters: dict = dataclasses.field(default_factory=dict)  #: every section
     states: tuple[State, ...] = ()  #: the kind's states, by code
+    #: The plug-ins the run loaded (:meth:`mona_controller.plugins.Plugin.to_dict` records):
+    #: what an analysis must load to recompute it. Left out of the message when empty.
+    plugins: tuple[dict, ...] = ()
 
     @property
     def key(self) -> tuple[int, int, int]:
@@ -229,12 +232,15 @@ class Announcement:
         """The message text (a shutdown carries only the episode and the flag)."""
         if self.shutdown:
             return json.dumps({'episode': self.episode, 'shutdown': True})
-        return json.dumps({'episode': self.episode, 'seed': self.seed,
-                           'population': self.population, 'duration': self.duration,
-                           'start_ns': self.start_ns, 'poses': [list(p) for p in self.poses],
-                           'parameters': self.parameters,
-                           'states': [{'name': state.name, 'colour': list(state.colour)}
-                                      for state in self.states]})
+        document = {'episode': self.episode, 'seed': self.seed,
+                    'population': self.population, 'duration': self.duration,
+                    'start_ns': self.start_ns, 'poses': [list(p) for p in self.poses],
+                    'parameters': self.parameters,
+                    'states': [{'name': state.name, 'colour': list(state.colour)}
+                               for state in self.states]}
+        if self.plugins:
+            document['plugins'] = list(self.plugins)
+        return json.dumps(document)
 
     @classmethod
     def from_dict(cls, document: dict) -> Announcement:
@@ -252,11 +258,14 @@ class Announcement:
             if not isinstance(parameters, dict):
                 raise TypeError("'parameters' is not a mapping")
             poses = tuple((float(x), float(y), float(yaw)) for x, y, yaw in document['poses'])
+            plugins = document.get('plugins', [])
+            if not isinstance(plugins, list) or not all(isinstance(p, dict) for p in plugins):
+                raise TypeError("'plugins' is not a list of records")
             announcement = cls(episode=int(document['episode']), seed=int(document['seed']),
                                population=int(document['population']),
                                duration=float(document['duration']),
                                start_ns=int(document['start_ns']), poses=poses,
-                               parameters=parameters,
+                               parameters=parameters, plugins=tuple(plugins),
                                states=tuple(State(str(state['name']),
                                                   tuple(float(c) for c in state['colour']))
                                             for state in document.get('states', ())))

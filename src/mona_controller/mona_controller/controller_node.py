@@ -40,7 +40,7 @@ from mona_controller.messages import (
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.pairing import RateLimitedLog, ReadingPairs
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, differences, param, validate
 from mona_controller.shutdown import teardown
 
@@ -93,6 +93,7 @@ class ControllerNode(Node):
             namespace = qos.robot_namespace(robot_id)
         super().__init__('mona_controller', namespace=namespace, parameter_overrides=overrides,
                          **kwargs)
+        declare_plugins(self)  # before controller.kind, which may name a plug-in's kind
         options = declare_section(self, ControllerNodeParams)
         self.robot_id = robot_id_of(self.get_namespace(), options.robot_id)
         self.mona = declare_section(self, MonaParams, 'mona.')
@@ -164,7 +165,8 @@ class ControllerNode(Node):
         self.get_logger().info(f'episode {announcement.episode}: seed {announcement.seed}, '
                                f'start {announcement.start_ns} ns, '
                                + ('refused' if refused else
-                                  'active' if self.active else 'not in this population'))
+                                  f'active ({self.params.kind})' if self.active
+                                  else 'not in this population'))
         self._publish(self.pairs.start(announcement.start_ns))
 
     def _parameter_differences(self, announced: dict) -> list[str]:

@@ -17,6 +17,7 @@ from mona_controller.schema import (
     ParameterError,
     Spec,
     named_sections,
+    parameter_fields,
     spec_of,
 )
 
@@ -26,7 +27,7 @@ def renamed_keys(cls: type, prefix: str = '') -> dict[str, str]:
     old dotted key -> new dotted key."""
     found = {f'{prefix}{old}': f'{prefix}{new}'
              for old, new in getattr(cls, 'RENAMED', {}).items()}
-    for field in dataclasses.fields(cls):
+    for field in parameter_fields(cls):
         factory = field.default_factory
         if spec_of(field) is None and 'sections' not in field.metadata and callable(factory):
             found.update(renamed_keys(type(factory()), f'{prefix}{field.name}.'))
@@ -56,7 +57,7 @@ def leaf(section: Any, key: str) -> tuple[str, Any, Spec]:
             name, *rest = renamed.split('.')
             parts = rest + parts
         done.append(name)
-        fields = {f.name: f for f in dataclasses.fields(node)} if \
+        fields = {f.name: f for f in parameter_fields(node)} if \
             dataclasses.is_dataclass(node) else {}
         named = named_sections(node) if fields else {}
         if name in named:

@@ -19,7 +19,9 @@ from typing import Any, TypeVar
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
+from mona_controller import plugins
 from mona_controller.keys import renamed_keys
 from mona_controller.schema import ParameterError, Spec, flat_fields, from_mapping, unflatten
 
@@ -150,3 +152,24 @@ def check_unknown(node: Node, prefixes: Iterable[str], known: set[str]) -> None:
             raise ParameterError(f'unknown parameter {name}; known in {section[:-1]}: '
                                  f'{choices}')
 
+
+
+def declare_plugins(node: Node) -> tuple[plugins.Plugin, ...]:
+    """Declare the ``plugins`` parameter (the run's plug-in files; the launcher hands every
+    node their absolute paths, a node started by hand resolves relative ones against its
+    current directory) and load them after the installed plug-ins
+    (:func:`mona_controller.plugins.load`): before any section that may name what they
+    register (a controller kind, an obstacle layout) is declared.
+
+    Returns:
+        The loaded plug-ins' records.
+
+    Raises:
+        ParameterError: a plug-in cannot be loaded (naming it).
+    """
+    param = node.declare_parameter(plugins.KEY, Parameter.Type.STRING_ARRAY, ParameterDescriptor(
+        name=plugins.KEY, read_only=True,
+        description='plug-in files: Python modules registering metrics, controller kinds or '
+                    'obstacle layouts (docs/extending.md)'))
+    paths = list(param.value or ()) if param.type_ == Parameter.Type.STRING_ARRAY else []
+    return plugins.load(plugins.resolve(paths, None))

@@ -89,11 +89,22 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
     return field.metadata.get('spec')
 
 
+#: The metadata of a field that is not a parameter (e.g. the plug-ins a config loaded): the
+#: schema neither builds it from a mapping, nor gives it in one, nor declares it.
+NOT_A_PARAMETER = {'parameter': False}
+
+
+def parameter_fields(section: Any) -> tuple[dataclasses.Field, ...]:
+    """The fields of a section (class or instance) that are parameters or sections."""
+    return tuple(field for field in dataclasses.fields(section)
+                 if field.metadata.get('parameter', True))
+
+
 def named_sections(section: Any) -> dict[str, tuple[str, type]]:
     """The :func:`sections` of a section (class or instance): name -> (its field, its
     class)."""
     found = {}
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         lookup = field.metadata.get('sections')
         if lookup is not None:
             found.update({name: (field.name, cls) for name, cls in lookup().items()})
@@ -185,7 +196,7 @@ def validate(section: Any, prefix: str = '') -> None:
     Raises:
         ParameterError: naming the dotted key, the value and the allowed range.
     """
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         lookup = field.metadata.get('sections')
         if lookup is not None:
             object.__setattr__(section, field.name, _filled(
@@ -209,8 +220,7 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
             given under both its old and its new name.
     """
     mapping = _renamed(cls, dict(mapping or {}), prefix)
-    known = {f.name: f for f in dataclasses.fields(cls)  # type: ignore[arg-type]
-             if 'sections' not in f.metadata}
+    known = {f.name: f for f in parameter_fields(cls) if 'sections' not in f.metadata}
     named = named_sections(cls)
     unknown = sorted(set(mapping) - set(known) - set(named))
     if unknown:
@@ -247,7 +257,7 @@ def merged(cls: type, base: Mapping[str, Any], changes: Mapping[str, Any],
     a :class:`DeprecatedKeyWarning`)."""
     out = dict(base)
     named = named_sections(cls)
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in parameter_fields(cls)}
     for key, value in _renamed(cls, dict(changes), prefix).items():
         field = fields.get(key)
         sub = named[key][1] if key in named else \
@@ -291,7 +301,7 @@ def _renamed(cls: type, mapping: dict[str, Any], prefix: str) -> dict[str, Any]:
 def to_mapping(section: Any) -> dict[str, Any]:
     """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
     out: dict[str, Any] = {}
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         value = getattr(section, field.name)
         spec = spec_of(field)
         if 'sections' in field.metadata:
@@ -344,7 +354,7 @@ def leaves(section: Any, prefix: str = '') -> dict[str, Any]:
 
 def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
     """Every leaf field of an instance as (dotted name, value, spec)."""
-    for field in dataclasses.fields(section):
+    for field in parameter_fields(section):
         spec = spec_of(field)
         value = getattr(section, field.name)
         if 'sections' in field.metadata:

@@ -444,6 +444,17 @@ class EpisodeBag:
         except (KeyError, ValueError):
             return None
 
+    @property
+    def plugins(self) -> list:
+        """The plug-in records of the run (from the announcement, else from custom_data;
+        none if it recorded none)."""
+        if self.announcement is not None and 'parameters' in self.announcement:
+            return self.announcement.get('plugins') or []
+        try:
+            return json.loads(self.custom[CUSTOM_PREFIX + 'plugins'])
+        except (KeyError, ValueError):
+            return []
+
     def metric(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(log times ns, values) of /metrics/<name> as recorded online."""
         rows = self.metrics.get(name, [])

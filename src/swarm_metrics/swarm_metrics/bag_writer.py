@@ -127,7 +127,8 @@ class EpisodeBagWriter:
                   'population': announcement.get('population'),
                   'duration': announcement.get('duration'),
                   'start_ns': announcement.get('start_ns'),
-                  'parameters': announcement.get('parameters')}
+                  'parameters': announcement.get('parameters'),
+                  'plugins': announcement.get('plugins')}
         for key, value in fields.items():
             if value is not None:
                 self.set_custom(key, value if isinstance(value, str) else json.dumps(value))

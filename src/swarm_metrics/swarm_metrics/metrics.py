@@ -16,9 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib
 import math
-import os
 import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -43,9 +41,6 @@ SOURCE_COLUMNS = ('mean_cue_fraction_{}', 'ratio_near_{}')
 #: swarms use a compiled loop that never holds the N^2 / 2 distances (10,000 robots: 50
 #: million pairs, 1.2 GB as arrays), equal to the all-pairs mean to about 1e-13 (relative).
 ALL_PAIRS_MAX = 200
-#: Modules (comma-separated) imported when this module is, so that the metrics they register
-#: are in the table of every process of a run: spawned study workers, the metrics node.
-PLUGINS_VARIABLE = 'MONA_SWARM_METRICS'
 #: What a metric's name may be: a ROS topic name token (it becomes /metrics/<name>).
 NAME_PATTERN = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
 
@@ -272,7 +267,7 @@ def register(metric: Metric) -> Metric:
 
     Takes effect in this process for everything computed or recorded from then on; another
     process (a spawned study worker, the metrics node) has it only if it registers it too:
-    name the registering module in the environment variable :data:`PLUGINS_VARIABLE`.
+    call it in a plug-in (:mod:`mona_controller.plugins`), which every process loads.
 
     Returns:
         ``metric`` (so a module can keep it).
@@ -357,18 +352,3 @@ def columns(names: tuple[str, ...]) -> tuple[str, ...]:
     if len(names) < 2:
         return metric_columns()
     return metric_columns() + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)
-
-
-def _load_plugins() -> None:
-    """Import the modules :data:`PLUGINS_VARIABLE` names (each registers its metrics)."""
-    for module in filter(None, (m.strip() for m in
-                                os.environ.get(PLUGINS_VARIABLE, '').split(','))):
-        try:
-            importlib.import_module(module)
-        except ImportError as error:
-            raise ImportError(f'{PLUGINS_VARIABLE} names {module!r}, which cannot be imported '
-                              f'({error})') from error
-
-
-# Last: a plugin imports this module's names, which all exist by now.
-_load_plugins()

@@ -36,7 +36,7 @@ from std_msgs.msg import Float64, String
 from mona_controller import qos
 from mona_controller.contract import RecorderReport, RecorderState
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
@@ -87,6 +87,7 @@ class MetricsNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('metrics', **kwargs)
+        declare_plugins(self)  # their metrics and layouts, before any topic or episode
         self.options = declare_section(self, MetricsNodeParams)
         self.done = Future()  #: set to the exit status when the node should stop
         options = self.options

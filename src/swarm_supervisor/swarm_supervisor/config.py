@@ -5,13 +5,18 @@ The file is a ROS 2 parameter file whose ``/**`` wildcard section holds every pa
 
     /**:
       ros__parameters:
+        plugins: [my_plugins.py]        # optional: plug-in files, relative to this file
         episode: {population: 30, duration: 4000.0, seed: 1}
         world: {arena_side: 2.85, ...}
+
+The plug-ins (:mod:`mona_controller.plugins`) are loaded before the parameters are checked,
+so that a controller kind, an obstacle layout or a metric they register is known then.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import sys
 import warnings
@@ -21,15 +26,19 @@ from typing import Any
 
 import yaml
 
+from mona_controller import plugins as plugin_files
 from mona_controller.controllers.params import ControllerParams
 from mona_controller.keys import leaf, renamed_keys
 from mona_controller.mona import MonaParams
+from mona_controller.plugins import Plugin
 from mona_controller.schema import (
+    NOT_A_PARAMETER,
     DeprecatedKeyWarning,
     ParameterError,
     from_mapping,
     merged,
     param,
+    parameter_fields,
     to_mapping,
     unflatten,
     validate,
@@ -38,31 +47,45 @@ from swarm_metrics.metrics import MetricsParams
 from swarm_world.params import WorldParams
 from swarm_world.timing import steps_for
 
-#: The parameter file shipped with the project.
+#: The shipped configuration files in the source tree (the parameter file, the Fast DDS
+#: profile, the profiles of Monas, the Foxglove layout).
+SOURCE_CONFIG = Path(__file__).resolve().parents[3] / 'ros_ws' / 'config'
 #: The shipped parameter file in the source tree (ros_ws/config/mona_swarm.yaml).
-DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / 'ros_ws' / 'config' / 'mona_swarm.yaml'
-#: Where an installed swarm_supervisor keeps its copy, below an install prefix.
-INSTALLED_CONFIG = Path('share') / 'swarm_supervisor' / 'config' / 'mona_swarm.yaml'
+DEFAULT_CONFIG = SOURCE_CONFIG / 'mona_swarm.yaml'
+#: Where an installed swarm_supervisor keeps its copies, below an install prefix.
+INSTALLED_CONFIG = Path('share') / 'swarm_supervisor' / 'config'
 
 
-def default_config_path() -> Path:
-    """The default parameter file: the source tree's, else the installed package's (below this
-    Python's prefix, or a colcon workspace on AMENT_PREFIX_PATH).
+def shipped(name: str) -> Path:
+    """A shipped configuration file or folder (``name`` relative to ros_ws/config): the source
+    tree's, else the installed package's (below this Python's prefix, or a colcon workspace on
+    AMENT_PREFIX_PATH), so that every command works from any directory after ``pip install``.
 
     Raises:
-        ParameterError: none is there (silently falling back to built-in defaults would run
-            other parameters than the file a user edits).
+        ParameterError: it is in none of them (silently doing without, e.g. with built-in
+            defaults instead of the parameter file a user edits, would hide a broken install).
     """
     prefixes = [Path(sys.prefix), *(Path(p) for p in
                                      os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)
                                      if p)]
-    candidates = [DEFAULT_CONFIG, *(prefix / INSTALLED_CONFIG for prefix in prefixes)]
+    candidates = [SOURCE_CONFIG / name, *(prefix / INSTALLED_CONFIG / name
+                                          for prefix in prefixes)]
     for candidate in candidates:
-        if candidate.is_file():
+        if candidate.exists():
             return candidate
-    raise ParameterError('the default parameter file mona_swarm.yaml is missing (looked in '
+    raise ParameterError(f'the shipped {name} is missing (looked in '
                          + ', '.join(str(c) for c in candidates) + '); reinstall the '
-                         'packages or pass a parameter file (--config)')
+                         'packages' + (' or pass a parameter file (--config)'
+                                       if name.endswith('.yaml') else ''))
+
+
+def default_config_path() -> Path:
+    """The default parameter file, mona_swarm.yaml (:func:`shipped`).
+
+    Raises:
+        ParameterError: it is missing.
+    """
+    return shipped(DEFAULT_CONFIG.name)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,7 +145,8 @@ class StudyParams:
 
 @dataclasses.dataclass(frozen=True)
 class SwarmConfig:
-    """Every parameter of a run, by section."""
+    """Every parameter of a run, by section, and the plug-ins loaded for it (not parameters:
+    :meth:`to_dict` leaves them out; episode.json records them beside the parameters)."""
 
     episode: EpisodeParams = dataclasses.field(default_factory=EpisodeParams)
     mona: MonaParams = dataclasses.field(default_factory=MonaParams)
@@ -130,6 +154,7 @@ class SwarmConfig:
     controller: ControllerParams = dataclasses.field(default_factory=ControllerParams)
     metrics: MetricsParams = dataclasses.field(default_factory=MetricsParams)
     study: StudyParams = dataclasses.field(default_factory=StudyParams)
+    plugins: tuple[Plugin, ...] = dataclasses.field(default=(), metadata=NOT_A_PARAMETER)
 
     def __post_init__(self) -> None:
         if self.study.factors:
@@ -168,27 +193,36 @@ class SwarmConfig:
         return tuple(checked)
 
     def to_dict(self) -> dict[str, Any]:
-        """Every parameter as a nested plain mapping (for JSON, YAML and bag metadata)."""
+        """Every parameter as a nested plain mapping (for JSON, YAML and bag metadata); the
+        plug-ins are not in it (:meth:`plugin_records`)."""
         return to_mapping(self)
+
+    def plugin_records(self) -> list[dict[str, str]]:
+        """The plug-ins loaded for this config, as JSON records (path, SHA-256, module)."""
+        return plugin_files.records(self.plugins)
 
     def replace(self, **sections: dict[str, Any]) -> SwarmConfig:
         """A copy with some fields changed, e.g. ``replace(episode={'seed': 3})`` or
         ``replace(controller={'beeclust': {'alpha': 3.0}})`` (nested sections are merged, not
-        replaced); validated."""
-        unknown = sorted(set(sections) - {f.name for f in dataclasses.fields(self)})
+        replaced); validated, with the same plug-ins."""
+        unknown = sorted(set(sections) - {f.name for f in parameter_fields(self)})
         if unknown:
             raise ParameterError(f'unknown parameter section {unknown[0]}')
-        return from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), sections))
+        return dataclasses.replace(
+            from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), sections)),
+            plugins=self.plugins)
 
     def with_values(self, values: Mapping[str, Any]) -> SwarmConfig:
         """A copy with the parameters ``values`` (dotted key -> value, e.g.
-        ``{'controller.beeclust.alpha': 3.0}``) set; validated.
+        ``{'controller.beeclust.alpha': 3.0}``) set; validated, with the same plug-ins.
 
         Raises:
             ParameterError: a key that names no parameter, or a bad value.
         """
         flat = {leaf(self, key)[0]: value for key, value in values.items()}
-        return from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), unflatten(flat)))
+        return dataclasses.replace(
+            from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), unflatten(flat))),
+            plugins=self.plugins)
 
     def value(self, key: str) -> Any:
         """The value of the parameter ``key`` (dotted, e.g. ``controller.beeclust.alpha``).
@@ -238,7 +272,7 @@ SKELETON = """  /**:
 def _sections_of(names: Any) -> str:
     """For keys that are parameters rather than sections, where each belongs ('' if none)."""
     homes = {}
-    for section in dataclasses.fields(SwarmConfig):
+    for section in parameter_fields(SwarmConfig):
         for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc]
             homes.setdefault(field.name, []).append(f'{section.name}.{field.name}')
     found = [' or '.join(homes[name]) for name in names if isinstance(name, str)
@@ -246,12 +280,15 @@ def _sections_of(names: Any) -> str:
     return f' ({", ".join(found)}?)' if found else ''
 
 
-def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> SwarmConfig:
-    """Build a config from a parsed ROS parameter file (its ``/**`` section).
+def config_from_ros_yaml(document: Any, source: str = 'the configuration',
+                         folder: Path | None = None) -> SwarmConfig:
+    """Build a config from a parsed ROS parameter file (its ``/**`` section), after loading the
+    installed plug-ins and those its ``plugins`` list names (relative to ``folder``, the
+    file's; default the current directory).
 
     Raises:
         ParameterError: starting with ``source`` (once): a file of another shape (shown the
-            skeleton), an unknown or a bad parameter.
+            skeleton), a plug-in that cannot be loaded, an unknown or a bad parameter.
     """
     if not isinstance(document, dict) or '/**' not in document:
         keys = list(document) if isinstance(document, dict) else []
@@ -265,14 +302,23 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> Sw
         raise ParameterError(f"{source}: '/**' must hold exactly 'ros__parameters'. The "
                              f'skeleton:\n{SKELETON}')
     parameters = section['ros__parameters'] or {}
-    sections = {field.name for field in dataclasses.fields(SwarmConfig)}
+    sections = {field.name for field in parameter_fields(SwarmConfig)}
+    try:
+        if isinstance(parameters, dict) and plugin_files.KEY in parameters:
+            parameters = dict(parameters)
+            paths = plugin_files.resolve(parameters.pop(plugin_files.KEY) or [], folder)
+        else:
+            paths = []
+        loaded = plugin_files.load(paths)
+    except ParameterError as error:
+        raise ParameterError(f'{source}: {error}') from None
     if isinstance(parameters, dict) and set(parameters) - sections:
         flat = sorted(set(parameters) - sections, key=str)
         raise ParameterError(f'{source}: {", ".join(map(str, flat))} not in a section'
                              f'{_sections_of(flat)}; the sections are '
                              f'{", ".join(sorted(sections))}. The skeleton:\n{SKELETON}')
     try:
-        return from_mapping(SwarmConfig, parameters)
+        return dataclasses.replace(from_mapping(SwarmConfig, parameters), plugins=loaded)
     except ParameterError as error:
         raise ParameterError(f'{source}: {error}') from None
 
@@ -306,14 +352,27 @@ def file_relative_values(document: Any, folder: Path) -> dict[str, str]:
 
 def file_relative_overrides(path: str | Path) -> list[str]:
     """The ``NAME:=VALUE`` overrides that hand a node the parameter file's relative file
-    paths resolved (a node's ``--params-file`` cannot tell it which file a value came from;
-    the launcher adds these). Empty if the file cannot be read (it is checked elsewhere)."""
+    paths resolved, the plug-in files' too (a node's ``--params-file`` cannot tell it which
+    file a value came from; the launcher adds these). Empty if the file cannot be read (it is
+    checked elsewhere)."""
     try:
         document = yaml.safe_load(Path(path).read_text())
     except (OSError, yaml.YAMLError):
         return []
-    return [f'{name}:={value}' for name, value in
-            file_relative_values(document, Path(path).parent).items()]
+    overrides = [f'{name}:={value}' for name, value in
+                 file_relative_values(document, Path(path).parent).items()]
+    try:
+        paths = plugin_files.resolve(document['/**']['ros__parameters'][plugin_files.KEY],
+                                     Path(path).parent)
+    except (TypeError, KeyError, ParameterError):
+        return overrides
+    return overrides + [plugins_override(paths)] if paths else overrides
+
+
+def plugins_override(paths: list[str]) -> str:
+    """The ``plugins:=[...]`` override naming plug-in files (absolute paths, as a YAML list a
+    ROS parameter override parses)."""
+    return f'{plugin_files.KEY}:={json.dumps(paths)}'
 
 
 def load_config(path: str | Path | None = None) -> SwarmConfig:
@@ -336,14 +395,18 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
         for section in sections:
             node = node[section]
         node[key] = value
-    return config_from_ros_yaml(document, str(path))
+    return config_from_ros_yaml(document, str(path), path.parent)
 
 
 def write_ros_yaml(config: SwarmConfig, path: str | Path) -> None:
-    """Write a config as a ROS 2 parameter file that :func:`load_config` reads back."""
-    parameters = config.to_dict()
+    """Write a config as a ROS 2 parameter file that :func:`load_config` reads back (its
+    plug-in files listed by their absolute paths)."""
+    parameters: dict[str, Any] = config.to_dict()
     for section in parameters.values():  # rcl's YAML parser misreads an empty mapping
         for key in [k for k, v in section.items() if v == {}]:
             del section[key]
+    files = [plugin.path for plugin in config.plugins if plugin.origin == plugin_files.FILE]
+    if files:
+        parameters = {plugin_files.KEY: files, **parameters}
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}},
                                          sort_keys=False))

@@ -222,13 +222,16 @@ COUNTS = {'disc': 3, 'rect': 4, 'polygon': None}
 
 
 def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
-                    sources: Sequence[tuple[str, float, float]] = ()) -> tuple[Obstacle, ...]:
+                    sources: Sequence[tuple[str, float, float]] = (),
+                    prefix: str = 'world.obstacles.') -> tuple[Obstacle, ...]:
     """The obstacles of ``world.obstacles`` (name, values) pairs, in name order.
 
     Args:
         given: (name, [kind, numbers...]) pairs; the kind may be left out (see the module).
         side: the arena side (m): every obstacle lies inside the arena.
         sources: (name, x, y) of the leak sources: no obstacle may cover a source's centre.
+        prefix: what an error names before the obstacle's name (a layout's obstacles are
+            named by the layout).
 
     Returns:
         The obstacles, sorted by name.
@@ -240,7 +243,7 @@ def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
     """
     obstacles = []
     for name, values in sorted(given):
-        where = f'world.obstacles.{name}'
+        where = f'{prefix}{name}'
         if not NAME_PATTERN.match(name):
             raise ParameterError(f'{where}: an obstacle name must be a lower-case identifier')
         obstacle = _parse(where, name, tuple(values), side)

@@ -31,7 +31,7 @@ def initial_cue(params: WorldParams) -> np.ndarray:
         deposits = [source.deposit(params.cells, params.cell_size, 0.0, params.arena_side)
                     for source in params.source_list()]
         cue = np.maximum.reduce(deposits).astype(np.float32)
-    if params.obstacle_cue == 'clear' and params.obstacles:
+    if params.obstacle_cue == 'clear' and (params.obstacles or params.layout):
         cue[params.arena().under(params.cells, params.cell_size)] = 0.0
     return cue
 

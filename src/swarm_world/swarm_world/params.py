@@ -6,6 +6,7 @@ import dataclasses
 
 from mona_controller.schema import ParameterError, param, validate
 from swarm_world.arena import Arena, parse_obstacles
+from swarm_world.layouts import layout_obstacles
 from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal', 'blend')
@@ -82,6 +83,9 @@ class WorldParams:
                               doc="the initial cue under an obstacle: 'keep' it (robots "
                                   "cannot reach it to clean it) or 'clear' it (0 in every "
                                   "cell whose centre an obstacle covers)")
+    layout: str = param('', doc="a registered obstacle layout (a plug-in's: "
+                               'docs/extending.md, "An obstacle layout"), whose obstacles '
+                               "join world.obstacles; '' = none")
 
     def __post_init__(self) -> None:
         validate(self, 'world.')
@@ -157,7 +161,16 @@ class WorldParams:
             ParameterError: a bad obstacle (see :func:`swarm_world.arena.parse_obstacles`).
         """
         sources = [(source.name, source.x, source.y) for source in self.source_list()]
-        return Arena(self.arena_side, parse_obstacles(self.obstacles, self.arena_side, sources))
+        obstacles = parse_obstacles(self.obstacles, self.arena_side, sources)
+        if self.layout:
+            laid = parse_obstacles(layout_obstacles(self.layout, self), self.arena_side,
+                                   sources, f'world.layout = {self.layout!r}: obstacle ')
+            both = {o.name for o in obstacles} & {o.name for o in laid}
+            if both:
+                raise ParameterError(f'world.obstacles.{min(both)}: the layout '
+                                     f'{self.layout!r} has an obstacle of that name too')
+            obstacles = tuple(sorted(obstacles + laid, key=lambda obstacle: obstacle.name))
+        return Arena(self.arena_side, obstacles)
 
     @property
     def paper_field(self) -> bool:
@@ -166,7 +179,7 @@ class WorldParams:
         return not (self.sources or self.source_emission or self.source_velocity
                     or self.source_path or self.source_profile or self.cue_file
                     or self.diffusion or self.half_life
-                    or (self.obstacles and self.obstacle_cue == 'clear'))
+                    or ((self.obstacles or self.layout) and self.obstacle_cue == 'clear'))
 
     @property
     def step_ns(self) -> int:

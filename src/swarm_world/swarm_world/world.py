@@ -125,6 +125,20 @@ class World:
         self.cleaning = np.zeros(len(poses), dtype=bool)
         self.cleaned = _NOBODY
 
+    def warm_up(self) -> None:
+        """Step two robots, cleaning, for one cleaning and transport period, then forget it
+        all: numba loads every kernel of a step now (on a fresh install it compiles them,
+        seconds of CPU) rather than in an episode's first step, where the stall would look
+        like a lost world to a node's recorders. It ends as it began: no robots, the
+        initial cue."""
+        side = self.params.arena_side
+        self.reset(np.array([[0.3 * side, 0.5 * side, 0.0], [0.7 * side, 0.5 * side, 0.0]]))
+        period = max(self.params.cleaning_period, self.params.transport_period)
+        for _ in range(round(period * 1e9) // self._step_ns + 1):
+            self.sense()
+            self.step(np.zeros(2), np.zeros(2), np.ones(2, dtype=bool))
+        self.reset(np.zeros((0, 3)))
+
     def _physics(self, poses: np.ndarray) -> Physics:
         return Physics(self.params.arena_side, self.mona.body_radius, poses,
                        self.params.collision_slop, self.arena.obstacles)

@@ -51,7 +51,7 @@ from mona_controller.messages import (
 )
 from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, differences, to_mapping
 from mona_controller.shutdown import teardown
 from swarm_world.lockstep import Lockstep
@@ -137,10 +137,12 @@ class WorldNode(Node):
     def __init__(self, *, parameter_overrides: Sequence[Parameter] = (), **kwargs) -> None:
         super().__init__('world', parameter_overrides=[Parameter('use_sim_time', value=False),
                                                        *parameter_overrides], **kwargs)
+        declare_plugins(self)  # before world.layout, which may name a plug-in's layout
         self.params = declare_section(self, WorldParams, 'world.')
         self.mona = declare_section(self, MonaParams, 'mona.')
         self.options = declare_section(self, WorldNodeParams)
         self.world = World(self.params, self.mona)
+        self.world.warm_up()  # the compiled kernels now, not in an episode's first step
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.finished = Future()  #: done on the shutdown announcement, or a fatal error
         self.exit_status = 0

@@ -75,7 +75,8 @@ class ControllerParams:
         if self.kind not in registry.CONTROLLERS:  # the registry may grow: checked here
             raise ParameterError(f'controller.kind = {self.kind!r} is not allowed: one of '
                                  + ', '.join(repr(kind) for kind in registry.CONTROLLERS)
-                                 + ' (a kind of your own: docs/extending.md, "A controller")')
+                                 + '; a kind of your own is a plug-in: '
+                                 'docs/extending.md#a-controller')
         for _, section in self.kinds:
             check = getattr(section, 'check', None)
             if check is not None:

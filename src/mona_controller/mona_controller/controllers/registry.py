@@ -26,13 +26,15 @@ CONTROLLERS: dict[str, str] = {
 ENTRY_POINTS = 'mona_swarm.controllers'
 
 
-def register_controller(kind: str, target: str) -> None:
-    """Add a controller kind, ``target`` being ``'module:Class'`` (for this process and those
-    it forks; a spawned worker or a node sees it only through :data:`ENTRY_POINTS`).
+def register_controller(kind: str, target: str | type) -> None:
+    """Add a controller kind, ``target`` being the class or ``'module:Class'`` (for this
+    process; a plug-in, :mod:`mona_controller.plugins`, does it in every process of a run).
 
     Raises:
         ValueError: the kind is taken by another class, or ``target`` is not 'module:Class'.
     """
+    if isinstance(target, type):
+        target = f'{target.__module__}:{target.__qualname__}'
     module, colon, name = target.partition(':')
     if not (kind.isidentifier() and module and colon and name.isidentifier()):
         raise ValueError(f"controller {kind!r}: {target!r} is not 'module:Class' (or the kind "

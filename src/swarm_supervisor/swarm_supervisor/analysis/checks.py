@@ -328,6 +328,12 @@ def evaluate(table: pd.DataFrame, claims: Sequence[Claim]) -> list[ClaimResult]:
                          'level on its own (checks.evaluate_levels)')
     results = []
     for claim in claims:
+        lacking = [name for name in (claim.params.get('metric'), claim.params.get('response'))
+                   if name is not None and name not in table.columns]
+        if lacking:  # e.g. episodes run without the plug-in of a claim's metric
+            results.append(ClaimResult(claim, NOT_APPLICABLE,
+                                       f'the table has no column {lacking[0]}'))
+            continue
         try:
             holds, ours, values = CHECKS[claim.kind](table, claim.params)
         except NotApplicable as reason:

@@ -86,7 +86,8 @@ def _metric(value: Any) -> str:
     """A metrics.csv column: t or a metric of the table (swarm_metrics.metrics.METRICS)."""
     allowed = metric_columns()
     if value not in allowed:
-        raise ValueError(f'must be one of {", ".join(allowed)}, not {value!r}')
+        raise ValueError(f'must be one of {", ".join(allowed)}, not {value!r} (a metric of '
+                         'your own is a plug-in: docs/extending.md#a-metric)')
     return value
 
 

@@ -21,7 +21,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from swarm_metrics.metrics import METRICS  # noqa: E402
 from swarm_supervisor.outputs.pictures import draw_cue_map  # noqa: E402
 from swarm_supervisor.study.table import design_factors  # noqa: E402
 
@@ -160,7 +159,7 @@ def variants(table: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     design), a label names only that factor ('mona.ir_range = 0.05', or 'as the parameter
     file'); otherwise it names every factor.
     """
-    factors = [f for f in design_factors(table) if f not in METRICS]  # a metric is no factor
+    factors = design_factors(table)
     if not factors:
         return [('', table)]
     groups = [(values if isinstance(values, tuple) else (values,), rows)

@@ -13,12 +13,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from mona_controller.schema import ParameterError
 from swarm_supervisor.config import (
-    DEFAULT_CONFIG,
+    SOURCE_CONFIG,
     SwarmConfig,
     current_keys,
     load_config,
     mapping_value,
+    shipped,
 )
 
 #: The parameters of the sensing and encounter chain, by dotted key.
@@ -30,8 +32,14 @@ MODEL_CHAIN: tuple[str, ...] = (
     'mona.robot_detection', 'mona.wall_margin', 'mona.command_latency', 'world.cell_size',
     'world.cleaning', 'world.control_steps', 'controller.beeclust.turn_at',
 )
-#: The shipped profiles (in the source tree).
-PROFILES_DIR = DEFAULT_CONFIG.parent / 'profiles'
+#: The shipped profiles (in the source tree; an installed package has its copy:
+#: :func:`profiles_dir`).
+PROFILES_DIR = SOURCE_CONFIG / 'profiles'
+
+
+def profiles_dir() -> Path:
+    """The shipped profiles' folder, in the source tree or installed."""
+    return shipped(PROFILES_DIR.name)
 
 
 def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
@@ -43,15 +51,20 @@ def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
             for key in MODEL_CHAIN}
 
 
-def shipped_profiles(folder: Path = PROFILES_DIR) -> dict[str, dict[str, str]]:
-    """Each profile file's name -> its chain (none if the folder is not there)."""
+def shipped_profiles(folder: Path | None = None) -> dict[str, dict[str, str]]:
+    """Each profile file's name -> its chain (none if the folder is not there; default the
+    shipped folder, :func:`profiles_dir`)."""
+    try:
+        folder = profiles_dir() if folder is None else folder
+    except ParameterError:
+        return {}
     if not folder.is_dir():
         return {}
     return {path.stem: chain_of(load_config(path).to_dict())
             for path in sorted(folder.glob('*.yaml'))}
 
 
-def describe(records: Sequence[Mapping[str, Any]], folder: Path = PROFILES_DIR) -> str:
+def describe(records: Sequence[Mapping[str, Any]], folder: Path | None = None) -> str:
     """One line for report.md: the profile the episodes ran, and how it departs from the
     idealised default (the first episode's parameters; report.md warns separately when
     parameters differ between episodes)."""

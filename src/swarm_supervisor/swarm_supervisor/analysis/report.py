@@ -214,6 +214,20 @@ def software() -> dict[str, str]:
     return versions
 
 
+def plugins_lines(records: Sequence[dict[str, Any]]) -> list[str]:
+    """The report's lines on the plug-ins the episodes ran (each file once, with its
+    SHA-256), none without plug-ins."""
+    seen: dict[tuple[str, str], str] = {}
+    for record in records:
+        for plugin in record.get('plugins') or []:
+            if isinstance(plugin, dict):
+                where = plugin.get('path') or plugin.get('module', '?')
+                seen.setdefault((str(where), str(plugin.get('sha256', ''))),
+                                str(plugin.get('origin', 'file')))
+    return [f'- plug-in ({origin}): `{where}`, SHA-256 `{digest}`'
+            for (where, digest), origin in seen.items()]
+
+
 def differing_parameters(records: Sequence[dict[str, Any]]) -> list[str]:
     """Parameters other than the factors and the seed that differ between episodes."""
     values: dict[str, set] = {}
@@ -262,6 +276,7 @@ def render(out: Path, table: pd.DataFrame, folders: Sequence[Path],
     else:
         lines.append("- every parameter: in each episode folder's episode.json")
     lines.append(profile.describe(records))
+    lines += plugins_lines(records)
     factors = study.design_factors(table)
     for factor in factors:
         lines.append(f'- factor `{factor}`: '

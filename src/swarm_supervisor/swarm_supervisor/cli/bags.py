@@ -11,11 +11,13 @@ rebuild, ...) is an error with exit status 1 that names the checks; with
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from mona_controller import plugins
 from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics import completeness
 from swarm_metrics.analysis import recompute
@@ -163,12 +165,17 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
         IncompleteBagError: it fails a completeness check (with a bad announcement, even
             when ``allow_incomplete``: there is nothing to analyse it with).
         RecordExists: ``out`` holds a record and not ``overwrite``.
+        PluginError: a plug-in the bag records is missing or is not the code it recorded.
     """
     bag, note = with_recovery(path, read_episode_bag)
+    # The run's plug-ins, the very code it ran: their metrics are recomputed, their layout
+    # rebuilt (a missing or changed file is refused, naming it).
+    loaded = plugins.ensure(plugins.from_records(bag.plugins, f'{bag.path}: plugins'))
     findings = completeness.check_announcement(bag)
     if not findings:
         try:
-            config = from_mapping(SwarmConfig, bag.announcement['parameters'])
+            config = dataclasses.replace(from_mapping(SwarmConfig, bag.announcement['parameters']),
+                                         plugins=loaded)
         except ParameterError as error:
             findings = [Finding('announcement', '/episode',
                                 f'{bag.path}: the announced parameters are invalid: {error}')]

@@ -17,7 +17,6 @@ from pathlib import Path
 
 from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
-from swarm_supervisor.config import DEFAULT_CONFIG
 from swarm_supervisor.system.launcher import ROLES, launch
 
 DESCRIPTION = ('Run the node system (world, supervisor, metrics and the controllers) as real '
@@ -101,8 +100,9 @@ def add_options(parser: argparse.ArgumentParser) -> None:
              '(default: refuse, exit 2)')
     add('--mode', choices=('lockstep', 'realtime'), default='lockstep',
         help='stepping (default lockstep)')
-    add('--config', type=_file, default=str(DEFAULT_CONFIG), metavar='YAML',
-        help='parameter file (default ros_ws/config/mona_swarm.yaml)')
+    add('--config', type=_file, metavar='YAML',
+        help='parameter file (default: the shipped mona_swarm.yaml, ros_ws/config/ in the '
+             'source tree)')
     add('--controllers-per-process', dest='per_process', type=bounded(int, 1), default=1,
         metavar='K', help='robots per controller process, one node each (default 1)')
     add('--timeout', type=bounded(int, 0, unit='s'), default=0, metavar='S',

@@ -9,7 +9,7 @@ import dataclasses
 from typing import Any
 
 from mona_controller.keys import renamed_keys
-from mona_controller.schema import spec_of
+from mona_controller.schema import parameter_fields, spec_of
 from swarm_supervisor.config import SwarmConfig
 
 
@@ -28,7 +28,7 @@ def _table(name: str, instance: Any, level: str) -> list[str]:
     lines = [f'{level} `{name}`', '', ' '.join((type(instance).__doc__ or '').split()), '',
              '| key | default | unit | allowed | meaning |', '|---|---|---|---|---|']
     named = []
-    for field in dataclasses.fields(instance):
+    for field in parameter_fields(instance):
         if 'sections' in field.metadata:
             named += getattr(instance, field.name)
             continue
@@ -52,9 +52,13 @@ def render() -> str:
              '`ros_ws/config/mona_swarm.yaml` under `/**: ros__parameters:`; the nodes take the',
              'same keys as ROS parameters (dotted, e.g. `controller.beeclust.alpha`). Ranges are',
              'inclusive; a value outside its range, of the wrong type, or an unknown key stops',
-             'the run at start-up with the key named.', '']
+             'the run at start-up with the key named.', '',
+             'Beside the sections, `plugins:` lists plug-in files (Python modules that register',
+             'metrics, controller kinds or obstacle layouts), each path absolute or relative to',
+             'the parameter file; they are loaded before the parameters are checked',
+             '([extending.md](extending.md)).', '']
     config = SwarmConfig()
-    for section in dataclasses.fields(SwarmConfig):
+    for section in parameter_fields(SwarmConfig):
         lines += _table(section.name, getattr(config, section.name), '##')
     renamed = renamed_keys(SwarmConfig)
     if renamed:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from mona_controller import plugins
 from swarm_metrics.completeness import describe
 from swarm_supervisor import exits, study
 from swarm_supervisor.analysis.claims import all_claims
@@ -84,13 +85,13 @@ def run(args: argparse.Namespace) -> int:
         130 / 143 when SIGINT / SIGTERM stopped the episodes (the kept ones are said).
     """
     started = time.perf_counter()
-    all_claims(args.claims)  # a bad claims file fails now, not after the episodes
     if args.from_episodes:
         return from_episodes(args, started)
     if args.allow_incomplete:
         raise study.StudyError('--allow-incomplete applies to --from-episodes only (the '
                                'episodes a study runs are complete)')
-    config = load_config(args.config)
+    config = load_config(args.config)  # with its plug-ins, whose metrics a claim may test
+    all_claims(args.claims)  # a bad claims file fails now, not after the episodes
     if args.quick:
         config = dataclasses.replace(config, study=study.quick_study(config.study))
     if args.scheduler and args.jobs:
@@ -128,6 +129,8 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
     if not folders:
         raise study.StudyError('no episode folders (metrics.csv + episode.json) under '
                                + ', '.join(map(str, args.from_episodes)))
+    plugins.ensure(study.recorded_plugins(folders))  # their metrics' entries, for claims
+    all_claims(args.claims)  # a bad claims file fails now, not after the checks
     incomplete = study.incomplete_episodes(folders)
     if incomplete and not args.allow_incomplete:
         listing = '\n'.join(f'  {folder}:\n{describe(findings, "    ")}'

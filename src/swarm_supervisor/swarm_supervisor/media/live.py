@@ -226,7 +226,8 @@ class LiveView(EpisodeObserver):
             0, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict(), states=states_of(config.controller.kind)).to_json())
+            parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
+            states=states_of(config.controller.kind)).to_json())
         self.obstacles = obstacles_cdr(episode.world.arena)
         if self.pacer is not None:
             self.pacer.start(episode)

@@ -149,7 +149,8 @@ class BagRecorder(EpisodeObserver):
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict(), states=states_of(config.controller.kind))
+            parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
+            states=states_of(config.controller.kind))
         try:
             # The world node's latched scenery reaches the metrics node before any episode.
             self.recorder.obstacles(obstacles_cdr(world.arena))

@@ -48,7 +48,8 @@ def read_metrics_csv(path: str | Path) -> dict[str, np.ndarray]:
 
 
 def episode_record(result: EpisodeResult, runner: str = 'embedded') -> dict:
-    """The provenance of an episode: seed, every parameter, timing, software version."""
+    """The provenance of an episode: seed, every parameter, the plug-ins, timing, software
+    version."""
     config = result.config
     return {
         'seed': config.episode.seed,
@@ -65,6 +66,8 @@ def episode_record(result: EpisodeResult, runner: str = 'embedded') -> dict:
         'software': {'mona_swarm': __version__, 'python': platform.python_version(),
                      'numpy': np.__version__},
         'parameters': config.to_dict(),
+        # The code beyond the package's it ran: each plug-in's file and SHA-256.
+        'plugins': config.plugin_records(),
     }
 
 

@@ -24,9 +24,10 @@ _WHERE = {
     **dict.fromkeys(('EPISODES_DIR', 'PARAMETERS_FILE', 'TIMING_FILE', 'VIDEOS_DIR',
                      'plan', 'read_invocations', 'render_videos', 'run_study', 'run_tasks'),
                   'run'),
-    **dict.fromkeys(('KEYS', 'TABLE_COLUMNS', 'TABLE_FILE', 'design_factors', 'episode_findings',
-                     'episode_key', 'find_episodes', 'incomplete_episodes', 'read_table',
-                     'recorded_findings', 'tidy_table', 'varying_parameters', 'write_table'),
+    **dict.fromkeys(('KEYS', 'TABLE_COLUMNS', 'TABLE_FILE', 'added_metrics', 'design_factors',
+                     'episode_findings', 'episode_key', 'find_episodes', 'incomplete_episodes',
+                     'read_table', 'recorded_findings', 'recorded_plugins', 'tidy_table',
+                     'varying_parameters', 'write_table'),
                   'table'),
 }
 __all__ = sorted(_WHERE)

@@ -38,8 +38,12 @@ def _flat(config: SwarmConfig) -> dict[str, Any]:
 
 
 def first_difference(stored: SwarmConfig, wanted: SwarmConfig) -> tuple[str, Any, Any] | None:
-    """The first key (schema order) whose value differs: (key, stored, wanted), or None."""
+    """The first key (schema order) whose value differs: (key, stored, wanted), or None;
+    the plug-in files first (``plugins``)."""
     before, after = _flat(stored), _flat(wanted)
+    before['plugins'], after['plugins'] = ([plugin.path for plugin in config.plugins]
+                                           for config in (stored, wanted))
+    after = {'plugins': after.pop('plugins'), **after}
     for key in after:
         if before.get(key) != after[key]:
             return key, before.get(key), after[key]

@@ -47,10 +47,16 @@ def _expected_parameters(config: SwarmConfig) -> dict[str, Any]:
 
 
 def _check_kept(folder: Path, config: SwarmConfig) -> None:
-    """Refuse to mix a finished episode run with other parameters into this study. A
-    parameter the episode's record lacks (one added to the schema since) counts as its
-    default: that is what the episode ran."""
+    """Refuse to mix a finished episode run with other parameters or other plug-in code into
+    this study. A parameter the episode's record lacks (one added to the schema since) counts
+    as its default: that is what the episode ran."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
+    ran = {(plugin.get('path'), plugin.get('sha256')) for plugin in record.get('plugins', [])}
+    for plugin in config.plugins:
+        if (plugin.path, plugin.sha256) not in ran:
+            raise StudyError(f'{folder} was run without the plug-in {plugin.path} as it is now '
+                             f'(SHA-256 {plugin.sha256[:12]}...): --out holds a study that ran '
+                             f'other code; {FIX}')
     stored = current_keys(record.get('parameters', {}))
     expected = _expected_parameters(config)
     defaults = _expected_parameters(SwarmConfig())
@@ -102,9 +108,9 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     with the same parameters); the others run in batches of at most ``batch_size`` episodes
     stepped together (the batched engine), costliest first, over ``jobs`` worker
     processes; each episode is written as soon as it is done.
-    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran, how it ended,
-    wall times) and ``all_metrics.csv``. The design and the folder are checked first
-    (:func:`~swarm_supervisor.study.validate.check_design`,
+    Writes ``parameters.yaml`` (the configuration), ``study.json`` (what ran with which
+    plug-ins, how it ended, wall times) and ``all_metrics.csv``. The design and the folder
+    are checked first (:func:`~swarm_supervisor.study.validate.check_design`,
     :func:`~swarm_supervisor.study.folder.claim_study_folder`): a refusal writes nothing.
     Ctrl-C or SIGTERM stops at once, cutting the running batches
     (:mod:`~swarm_supervisor.study.interrupt`); finished episodes stay on disk and the next
@@ -143,7 +149,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     claim_study_folder(config, out)
     (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the checks: a refusal changes nothing
-    entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs)}
+    entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs),
+                             'plugins': config.plugin_records()}
 
     def record(ran: dict[str, tuple[float, float]], jobs: int, outcome: str,
                rendered: Sequence[Path] = ()) -> int:

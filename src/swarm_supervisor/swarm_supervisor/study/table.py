@@ -4,9 +4,11 @@ The episodes of a study (or any folders holding metrics.csv + episode.json, e.g.
 bags) become one tidy table, ``all_metrics.csv``, with one row per episode and sample::
 
     population, speed, seed, [factors...,] t, mean_cue, mean_cue_fraction, ratio_near_source,
-    coherency
+    coherency, [added metrics...,] [per-source metrics...]
 
-where each extra factor is a column named by its dotted key (speed in m/s).
+where each extra factor is a column named by its dotted key (speed in m/s), and every metric
+the episodes' metrics.csv has beyond the paper's (a plug-in's, docs/extending.md) follows the
+paper's four.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from typing import Any
 
 import pandas as pd
 
+from mona_controller import plugins
+from mona_controller.plugins import Plugin
 from mona_controller.schema import leaves
 from swarm_metrics.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
@@ -100,6 +104,21 @@ def incomplete_episodes(folders: Iterable[Path]) -> dict[Path, list[Finding]]:
     return {folder: findings for folder, findings in found.items() if findings}
 
 
+def recorded_plugins(folders: Iterable[Path]) -> list[Plugin]:
+    """The plug-ins the episodes in ``folders`` recorded (each once, in first-seen order).
+
+    Raises:
+        StudyError: an episode.json is unreadable.
+        PluginError: its plug-in records are malformed.
+    """
+    found: dict[tuple[str, str], Plugin] = {}
+    for folder in folders:
+        for plugin in plugins.from_records(_read_record(Path(folder)).get('plugins'),
+                                           f'{Path(folder) / outputs.EPISODE_FILE}: plugins'):
+            found.setdefault((plugin.module, plugin.sha256), plugin)
+    return list(found.values())
+
+
 def _read_record(folder: Path) -> dict[str, Any]:
     """An episode.json, its parameters under their current keys."""
     try:
@@ -180,23 +199,33 @@ def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) ->
         missing = [c for c in COLUMNS if c not in metrics.columns]
         if missing:
             raise StudyError(f'{folder / outputs.METRICS_FILE} lacks columns {missing}')
-        per_source = [c for c in metrics.columns if is_source_column(c)]
-        shared = per_source if not frames else [c for c in shared if c in per_source]
-        frames.append(metrics[list(COLUMNS) + per_source].assign(**key))
+        extra = added_metrics(metrics.columns) + [c for c in metrics.columns
+                                                  if is_source_column(c)]
+        shared = extra if not frames else [c for c in shared if c in extra]
+        frames.append(metrics[list(COLUMNS) + extra].assign(**key))
     if not frames:
         raise StudyError('no episodes to tabulate')
-    # Several sources: their columns (metrics.source_columns) follow, if every episode has them.
+    # Added metrics, then with several sources their columns (metrics.source_columns), follow
+    # if every episode has them.
     columns = list(KEYS) + factors + list(COLUMNS) + shared
     table = pd.concat(frames, ignore_index=True)[columns]
     return table.sort_values(list(KEYS) + factors + ['t'], kind='stable', ignore_index=True)
 
 
+def added_metrics(columns: Iterable[str]) -> list[str]:
+    """The metrics beyond the paper's among metrics.csv or table ``columns`` (in their
+    order): the columns that are no key, factor (a dotted key), paper's metric or
+    per-source metric."""
+    return [column for column in columns if column not in TABLE_COLUMNS and '.' not in column
+            and not is_source_column(column)]
+
+
 def design_factors(table: pd.DataFrame) -> list[str]:
     """The factors a design declares beyond population, speed and seed: the table's columns
-    that are not :data:`TABLE_COLUMNS`, named by their dotted parameter key (e.g.
-    ``mona.ir_range``), in table order."""
+    named by a dotted parameter key (e.g. ``mona.ir_range``; a metric's name has no dot), in
+    table order."""
     return [column for column in table.columns
-            if column not in TABLE_COLUMNS and not is_source_column(column)]
+            if column not in TABLE_COLUMNS and '.' in column]
 
 
 def write_table(rows: list[dict[str, float]] | pd.DataFrame, path: str | Path) -> None:

@@ -17,6 +17,7 @@ import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
+from mona_controller import plugins
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine import batch_key, run_batch
@@ -60,8 +61,9 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
         included.
 
     Raises:
-        EpisodeFailed: an episode raised; the message names the batch's episodes and holds the
-            traceback (which does not survive the trip to the parent otherwise).
+        EpisodeFailed: an episode raised, or a plug-in of theirs could not be loaded as the
+            study loaded it; the message names the batch's episodes and holds the traceback
+            (which does not survive the trip to the parent otherwise).
     """
     started, cpu = time.perf_counter(), time.process_time()
     reported = [0.0] * len(tasks)
@@ -74,6 +76,8 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
 
     partials = [partial_folder(task.folder) for task in tasks]
     try:
+        for task in tasks:  # the very plug-in code the study loaded, before any episode
+            plugins.ensure(task.config.plugins)
         for partial in partials:  # left by a worker that was stopped mid-episode
             shutil.rmtree(partial, ignore_errors=True)
         recorders: list = [None] * len(tasks)

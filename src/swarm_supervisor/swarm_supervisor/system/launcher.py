@@ -34,12 +34,13 @@ from swarm_supervisor.system.preflight import (
     check_parameters,
     check_participants,
     check_roles,
+    config_file,
     forced_domain,
     run_overrides,
 )
 from swarm_supervisor.system.processes import (
-    PROFILE,
     claim_domain,
+    default_profile,
     describe,
     groups_shm,
     local_address,
@@ -99,7 +100,7 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                   executables: dict[str, str]) -> dict[str, list[str]]:
     """Node name -> command line, in start order: world, metrics, controllers, supervisor;
     only the nodes of ``options.role`` (when given)."""
-    ros_args = ['--ros-args', '--params-file', str(options.config)]
+    ros_args = ['--ros-args', '--params-file', str(config_file(options))]
     for override in run_overrides(options):
         ros_args += ['-p', override]
     # Starting many Python processes takes a while on a small machine: scale the patience.
@@ -303,8 +304,9 @@ def launch(options: argparse.Namespace) -> int:
     """Run the node system of ``options`` (``mona-swarm launch``); returns the exit status
     (:mod:`swarm_supervisor.exits`)."""
     try:
+        profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(default_profile())
         executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
-        config = check_parameters(options.config, run_overrides(options))
+        config = check_parameters(config_file(options), run_overrides(options))
         check_roles(options, config.episode.population)
         if getattr(options, 'linger', None) is not None and not options.live:
             raise UsageError('--linger is for --live: it keeps the live view up after the run')
@@ -348,7 +350,6 @@ def launch(options: argparse.Namespace) -> int:
             say(str(error))
             return exits.USAGE
 
-    profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(PROFILE)
     if options.peers:
         profile = str(out / PEERS_PROFILE)
         Path(profile).write_text(peers_profile(address, options.peers))

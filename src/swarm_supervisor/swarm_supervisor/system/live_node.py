@@ -31,7 +31,7 @@ from rclpy.task import Future
 
 from mona_controller import qos
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_metrics.recording import stamp_ns
@@ -88,6 +88,7 @@ class LiveNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('live', **kwargs)
+        declare_plugins(self)  # their metrics' channels
         self.options = declare_section(self, LiveNodeParams)
         self.done = Future()  #: set to the exit status when the node should stop
         forwarded = node_topics()

@@ -10,7 +10,6 @@ from pathlib import Path
 
 from swarm_supervisor.outputs.guard import RecordExists, claim_output
 from swarm_supervisor.system.preflight import node_run_in
-from swarm_supervisor.system.processes import REPO
 
 
 def claim_out(out: Path, overwrite: bool) -> None:
@@ -33,8 +32,9 @@ def claim_out(out: Path, overwrite: bool) -> None:
 
 
 def default_out() -> Path:
-    """results/swarm-<date>-<time>, with -2, -3, ... if a run of the same second has it."""
-    base = REPO / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
+    """results/swarm-<date>-<time> in the current directory, with -2, -3, ... if a run of the
+    same second has it."""
+    base = Path.cwd() / 'results' / f'swarm-{time.strftime("%Y%m%d-%H%M%S")}'
     out, n = base, 2
     while out.exists():
         out, n = base.with_name(f'{base.name}-{n}'), n + 1

@@ -13,7 +13,12 @@ from pathlib import Path
 import yaml
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor.config import SwarmConfig, file_relative_overrides, load_config
+from swarm_supervisor.config import (
+    SwarmConfig,
+    default_config_path,
+    file_relative_overrides,
+    load_config,
+)
 from swarm_supervisor.engine.episode import place_swarm
 from swarm_world.placement import MAX_COVERAGE, PlacementError
 
@@ -39,11 +44,21 @@ def check_roles(options: argparse.Namespace, population: int) -> None:
         raise UsageError('--robots goes with --role controllers')
 
 
+def config_file(options: argparse.Namespace) -> Path:
+    """The run's parameter file: ``--config``, else the shipped one (in the source tree or
+    installed, :func:`~swarm_supervisor.config.default_config_path`).
+
+    Raises:
+        ParameterError: no ``--config`` and the shipped file is missing.
+    """
+    return Path(options.config) if options.config is not None else default_config_path()
+
+
 def run_overrides(options: argparse.Namespace) -> list[str]:
     """The ``NAME:=VALUE`` overrides every node gets: the parameter file's relative file
     paths resolved against it (:func:`~swarm_supervisor.config.file_relative_overrides`),
     the options' parameters, then ``-p``."""
-    overrides = file_relative_overrides(options.config)
+    overrides = file_relative_overrides(config_file(options))
     if options.population is not None:
         overrides.append(f'episode.population:={options.population}')
     if options.duration is not None:

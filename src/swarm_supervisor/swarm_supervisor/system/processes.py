@@ -23,10 +23,11 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import IO
 
-#: The source tree (the package runs from it: pip's editable install, colcon's symlinks).
-REPO = Path(__file__).resolve().parents[4]
-#: The Fast DDS profile of every run: loopback only, no shared memory (docs/running.md).
-PROFILE = REPO / 'ros_ws' / 'config' / 'fastdds_localhost.xml'
+from swarm_supervisor.config import shipped
+
+#: The Fast DDS profile of every run: loopback only, no shared memory (docs/running.md); a
+#: shipped file (:func:`~swarm_supervisor.config.shipped`).
+PROFILE_NAME = 'fastdds_localhost.xml'
 SHM = Path('/dev/shm')
 SHM_PREFIXES = ('fastrtps_', 'fast_datasharing', 'sem.fastrtps_')
 #: Domains 1..100 keep every Fast DDS port below Linux's ephemeral range (32768).
@@ -96,11 +97,22 @@ def private_domain() -> Iterator[int]:
         yield domain
 
 
-def ros_environment(domain: int, profile: Path = PROFILE, log_dir: Path | None = None,
+def default_profile() -> Path:
+    """The shipped Fast DDS profile (the source tree's, else the installed package's).
+
+    Raises:
+        ParameterError: it is missing (a broken install).
+    """
+    return shipped(PROFILE_NAME)
+
+
+def ros_environment(domain: int, profile: Path | None = None, log_dir: Path | None = None,
                     base: Mapping[str, str] | None = None) -> dict[str, str]:
     """The environment of a node process in ``domain``: ``base`` (default os.environ) with the
-    domain, Fast DDS and ``profile`` alone deciding discovery, unbuffered output, Python's
-    fault handler, rcl's logs in ``log_dir`` and this Python's executables first on PATH."""
+    domain, Fast DDS and ``profile`` (default :func:`default_profile`) alone deciding
+    discovery, unbuffered output, Python's fault handler, rcl's logs in ``log_dir`` and this
+    Python's executables first on PATH."""
+    profile = default_profile() if profile is None else profile
     env = dict(os.environ if base is None else base)
     for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
         env.pop(key, None)

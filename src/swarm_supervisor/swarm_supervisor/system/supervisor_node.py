@@ -44,7 +44,7 @@ from mona_controller.contract import (
 )
 from mona_controller.controllers import states_of
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
@@ -88,7 +88,8 @@ class Supervisor(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('supervisor', **kwargs)
-        self.config = declare_section(self, SwarmConfig)
+        loaded = declare_plugins(self)  # before the parameters that may name what they add
+        self.config = dataclasses.replace(declare_section(self, SwarmConfig), plugins=loaded)
         self.options = declare_section(self, SupervisorParams)
         if self.config.episode.population < 1:
             raise ParameterError(f'episode.population = {self.config.episode.population} is out '
@@ -173,7 +174,7 @@ class Supervisor(Node):
             episode, seed=seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.status.time_ns,
             poses=tuple(map(tuple, poses.tolist())), parameters=config.to_dict(),
-            states=states_of(config.controller.kind))
+            plugins=tuple(config.plugin_records()), states=states_of(config.controller.kind))
         self.episode_pub.publish(String(data=self.announcement.to_json()))
         self.get_logger().info(f'episode {episode}: seed {seed}, {len(poses)} robots, start '
                                f'{self.announcement.start_ns} ns')
@@ -252,7 +253,8 @@ class Supervisor(Node):
         folder = Path(self.options.output_dir)
         folder.mkdir(parents=True, exist_ok=True)
         document = {'runner': 'ros', 'seed': self.config.episode.seed,
-                    'episodes': self.records, 'parameters': self.config.to_dict()}
+                    'episodes': self.records, 'parameters': self.config.to_dict(),
+                    'plugins': self.config.plugin_records()}
         partial = folder / (RUN_FILE + '.partial')
         partial.write_text(json.dumps(document, indent=1) + '\n')
         os.replace(partial, folder / RUN_FILE)

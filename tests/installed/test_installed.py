@@ -1,0 +1,170 @@
+"""The project as a user installs and extends it.
+
+``pip install .`` (the repository root's pyproject.toml) into a fresh virtual environment, from
+a copy of the repository's files (pip builds in the tree it is given); then, from a
+temporary folder outside the repository and with nothing of the repository on the path, the
+recipes of docs/extending.md exactly as the page has them: each file of ``my_swarm/`` (a
+metric, a controller kind, an obstacle layout, the parameter file naming them, a claim)
+written from the page, each of its ``cd my_swarm`` command blocks run by bash. They run an
+episode with its bag, ``analyze``, a study with the claim on the metric, and the node system.
+
+The dependencies come from a wheelhouse outside the checkout (``MONA_SWARM_WHEELHOUSE``,
+default ~/.cache/mona-swarm/wheels): ``pip download`` fills it with the pinned requirements
+and the build backends once per machine (a few minutes), then ``pip install --no-index
+--find-links`` installs from it alone (the index's answers are not cached by pip here).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from swarm_supervisor.cli.command import COMMAND_MODULES
+
+from harness import recipes
+
+pytestmark = pytest.mark.slow
+
+REPO = Path(__file__).resolve().parents[2]
+PAGE = REPO / 'docs' / 'extending.md'
+WHEELHOUSE = Path(os.environ.get('MONA_SWARM_WHEELHOUSE',
+                                 Path.home() / '.cache' / 'mona-swarm' / 'wheels'))
+#: The build backends: the root's (hatchling) and the four packages' (setuptools' legacy one).
+BACKENDS = ('setuptools', 'wheel')
+
+
+def run(command: list[str], **options) -> subprocess.CompletedProcess:
+    """A command that must succeed; its output is shown when it does not."""
+    done = subprocess.run(command, capture_output=True, text=True, **options)
+    assert done.returncode == 0, f'{command} exited {done.returncode}:\n{done.stdout[-3000:]}' \
+                                 f'\n{done.stderr[-6000:]}'
+    return done
+
+
+def requirements() -> list[str]:
+    """What the install needs from the wheelhouse: the root's pinned dependencies (not the
+    four packages it names by path) and every build backend."""
+    project = tomllib.loads((REPO / 'pyproject.toml').read_text())
+    pinned = [r for r in project['project']['dependencies'] if ' @ ' not in r]
+    return sorted(pinned + project['build-system']['requires'] + list(BACKENDS))
+
+
+def fill_wheelhouse() -> None:
+    """Download the requirements' wheels once (a marker file lists what is there)."""
+    wanted = '\n'.join(requirements()) + '\n'
+    marker = WHEELHOUSE / '.requirements'
+    if marker.is_file() and marker.read_text() == wanted:
+        return
+    WHEELHOUSE.mkdir(parents=True, exist_ok=True)
+    run([sys.executable, '-m', 'pip', 'download', '--quiet', '--dest', str(WHEELHOUSE),
+         *requirements()], timeout=3600)
+    marker.write_text(wanted)
+
+
+def copy_repository(to: Path) -> Path:
+    """The repository's files (tracked, and new ones not ignored) copied to ``to``."""
+    listed = run(['git', 'ls-files', '-z', '--cached', '--others', '--exclude-standard'],
+                 cwd=REPO, timeout=60).stdout.split('\0')
+    for name in filter(None, listed):
+        source = REPO / name
+        if source.is_file() or source.is_symlink():
+            target = to / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if source.is_symlink():
+                target.symlink_to(os.readlink(source))
+            else:
+                shutil.copy2(source, target)
+    return to
+
+
+@pytest.fixture(scope='module')
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A fresh virtual environment with the project ``pip install``ed: its bin folder."""
+    started = time.monotonic()
+    fill_wheelhouse()
+    root = tmp_path_factory.mktemp('install')
+    source = copy_repository(root / 'mona-swarm')
+    venv = root / 'venv'
+    run([sys.executable, '-m', 'venv', str(venv)], timeout=300)
+    run([str(venv / 'bin' / 'python'), '-m', 'pip', 'install', '--quiet', '--no-index',
+         '--find-links', str(WHEELHOUSE), str(source)], cwd=root, timeout=3600)
+    print(f'installed in {time.monotonic() - started:.0f} s')
+    return venv / 'bin'
+
+
+def user_environment(bin_dir: Path) -> dict[str, str]:
+    """A shell of a user who activated the venv: nothing of the repository on any path."""
+    env = {key: value for key, value in os.environ.items()
+           if key not in ('PYTHONPATH', 'VIRTUAL_ENV', 'MONA_SWARM_METRICS')
+           and not key.startswith(('PYTEST', 'AMENT'))}
+    env['PATH'] = os.pathsep.join([str(bin_dir), *[p for p in env.get('PATH', '').split(
+        os.pathsep) if p and not p.startswith(str(REPO))]])
+    env['VIRTUAL_ENV'] = str(bin_dir.parent)
+    return env
+
+
+def test_the_recipes_parse():
+    """The page has the user's folder and commands that use every file of it."""
+    files, commands = recipes(PAGE.read_text())
+    assert {'my_swarm/params.yaml', 'my_swarm/under_robots.py', 'my_swarm/shy.py',
+            'my_swarm/ring.py', 'my_swarm/claims.yaml'} <= set(files)
+    script = '\n'.join(commands)
+    for needed in ('mona-swarm run', 'mona-swarm study', 'mona-swarm analyze',
+                   'mona-swarm launch', '--claims claims.yaml'):
+        assert needed in script
+
+
+def test_an_installed_package_runs_the_recipes_from_a_folder_of_ones_own(
+        installed: Path, tmp_path: Path):
+    files, commands = recipes(PAGE.read_text())
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    env = user_environment(installed)
+    # Every command's help, from anywhere: each subcommand's module imports.
+    for names in COMMAND_MODULES.values():
+        for command in names:
+            run(['mona-swarm', command, '--help'], cwd=tmp_path, env=env, timeout=120)
+    timings = []
+    for script in commands:
+        started = time.monotonic()
+        run(['bash', '-euo', 'pipefail', '-c', script], cwd=tmp_path, env=env, timeout=1800)
+        timings.append(round(time.monotonic() - started))
+    print('recipe blocks took', timings, 's')
+
+    out = tmp_path / 'my_swarm' / 'results'
+    plugins = {Path(p['path']).name: p for p in
+               json.loads((out / 'mine' / 'episode.json').read_text())['plugins']}
+    assert set(plugins) == {'under_robots.py', 'shy.py', 'ring.py'}
+    # The controller kind: two episodes stepped together, a study factor, the node system.
+    for seed in (1, 2):
+        kind = json.loads((out / 'shy' / f's{seed}' / 'episode.json').read_text())
+        assert kind['parameters']['controller']['kind'] == 'shy'
+    # The metric: a column of the episode, of the analysis and of the study's table, a
+    # figure, and the claim on it checked in the report.
+    for csv in (out / 'mine' / 'metrics.csv', out / 'again' / 'metrics.csv',
+                out / 'study' / 'all_metrics.csv'):
+        assert 'cue_under_robots' in csv.read_text().split('\n', 1)[0].split(','), csv
+    assert (out / 'study' / 'fig_metric_cue_under_robots.png').stat().st_size > 10_000
+    report = (out / 'study' / 'report.md').read_text()
+    assert re.search(r'\| `robots_stand_on_the_cue` \|.*\| (holds|\*\*does not hold\*\*) \|',
+                     report)
+    assert plugins['under_robots.py']['sha256'] in report
+    # The layout and the kind: study factors; the node system's nodes ran both.
+    header = (out / 'study' / 'all_metrics.csv').read_text().split('\n', 1)[0].split(',')
+    assert {'controller.kind', 'world.layout'} <= set(header)
+    run_record = json.loads((out / 'ros' / 'run.json').read_text())
+    assert run_record['parameters']['world']['layout'] == 'ring'
+    assert run_record['parameters']['controller']['kind'] == 'shy'
+    assert {Path(p['path']).name for p in run_record['plugins']} == set(plugins)
+    analysed = json.loads((out / 'ros_again' / 'episode.json').read_text())
+    assert analysed['complete'] and analysed['plugins'] == run_record['plugins']
