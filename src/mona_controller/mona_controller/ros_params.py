@@ -22,6 +22,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from mona_controller import plugins
+from mona_controller.keys import renamed_keys
 from mona_controller.schema import (
     ParameterError,
     Spec,
@@ -81,15 +82,17 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
         prefix: the dotted prefix of the section, e.g. ``'controller.'`` ('' for none).
 
     A parameter given under a key that moved into the section (``mona.ground_noise`` for
-    ``sensing.ground_noise``) is taken as the new one, with a warning in the node's log; one
-    that moved out of it is left to the section it joined.
+    ``sensing.ground_noise``) or that the schema renamed (``controller.alpha`` for
+    ``controller.beeclust.alpha``) is taken as the new one, with a warning in the node's log;
+    one that moved out of it is left to the section it joined.
 
     Raises:
         ParameterError: an out-of-range, mistyped or unknown value, or a key given under both
             its old and its new name, naming the parameter and its allowed range.
     """
     values, known = {}, set()
-    moved = _moved_overrides(node, cls, prefix, known)
+    moved = {**_moved_overrides(node, cls, prefix, known),
+             **_renamed_overrides(node, cls, prefix, known)}
     for name, default, spec in flat_fields(cls, prefix):
         if spec.keyed:
             values[name[len(prefix):]] = _declare_keyed(node, name)
@@ -125,6 +128,25 @@ def _moved_overrides(node: Node, cls: type, prefix: str, known: set[str]) -> dic
             raise ParameterError(f'{old} and {new} are both given: give {new} only')
         node.get_logger().warning(f'{old} is deprecated: use {new}')
     return {new: _plain(overrides[old].value) for old, new in into.items()}
+
+
+def _renamed_overrides(node: Node, cls: type, prefix: str, known: set[str]) -> dict[str, Any]:
+    """The values given under renamed keys, by their new keys (each old key declared, added
+    to ``known`` and warned about in the log)."""
+    overrides = getattr(node, '_parameter_overrides', {})  # rclpy keeps them only privately
+    moved = {}
+    for old, new in renamed_keys(cls, prefix).items():
+        if old not in overrides:
+            continue
+        if new in overrides:
+            raise ParameterError(f'{old} and {new} are both given: give {new} only')
+        param = node.declare_parameter(old, descriptor=ParameterDescriptor(
+            name=old, read_only=True, dynamic_typing=True,
+            description=f'deprecated: use {new}'))
+        moved[new] = _plain(param.value)
+        known.add(old)
+        node.get_logger().warning(f'{old} is deprecated: use {new}')
+    return moved
 
 
 def _declare_keyed(node: Node, name: str) -> dict[str, Any]:

@@ -13,12 +13,13 @@ layout").
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from mona_controller.schema import ParameterError
 
-if TYPE_CHECKING:
-    from swarm_world.params import WorldParams
+# A layout takes the world section (swarm_world.params.WorldParams), typed Any here: params
+# imports this module, and no two modules name each other, not even for annotations.
+WorldParams = Any
 
 #: A layout: the world's parameters -> obstacle name -> [kind, numbers...] or [numbers...].
 Layout = Callable[['WorldParams'], Mapping[str, Sequence[Any]]]

@@ -1,12 +1,12 @@
 """Recording episodes: the metrics node's logic, without ROS.
 
 A :class:`Recorder` takes the messages of the world and the supervisor as the CDR bytes that
-arrived, keeps one bag per announced episode (:class:`~swarm_metrics.bag_writer.
-EpisodeBagWriter`), drives the :class:`~swarm_metrics.analysis.MetricsReplica` that computes
+arrived, keeps one bag per announced episode (:class:`~swarm_metrics.bags.writer.
+EpisodeBagWriter`), drives the :class:`~swarm_metrics.bags.analysis.MetricsReplica` that computes
 the metrics online, and knows when its record of an episode is whole: it has the world's
 final status and everything that status counts (the poses up to its time, its
 ``cleaning_events``), and a metric sample for every sample period from t = 0. The node
-(:mod:`swarm_metrics.metrics_node`) subscribes, calls it, and publishes what it returns.
+(:mod:`swarm_metrics.ros.metrics_node`) subscribes, calls it, and publishes what it returns.
 
 ``/world/robot_states`` has no stamp: the world publishes one with every ``/world/poses``,
 just before it, so the n-th states message of an episode belongs to its n-th poses message;

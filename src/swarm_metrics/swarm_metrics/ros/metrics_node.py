@@ -1,6 +1,6 @@
 """The metrics node: online metrics on /metrics/<name> and one bag per episode.
 
-A thin adapter around :class:`swarm_metrics.recording.Recorder`, which keeps a replica of the
+A thin adapter around :class:`swarm_metrics.bags.recording.Recorder`, which keeps a replica of the
 cue by applying each /world/cleaning event with the world's own cleaning function, samples
 the metrics once per ``sample_period`` of sim time and records them, so the online numbers
 and ``mona-swarm analyze`` on the bag agree by construction.

@@ -13,8 +13,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mona_controller.schema import ParameterError, moved_keys, relocate
-from swarm_supervisor.config import SOURCE_CONFIG, SwarmConfig, load_config, shipped
+from mona_controller.schema import ParameterError
+from swarm_supervisor.config import (
+    SOURCE_CONFIG,
+    SwarmConfig,
+    current_keys,
+    load_config,
+    mapping_value,
+    shipped,
+)
 
 #: The parameters of the sensing and encounter chain, by dotted key.
 MODEL_CHAIN: tuple[str, ...] = (
@@ -24,7 +31,7 @@ MODEL_CHAIN: tuple[str, ...] = (
     'sensing.ground_footprint', 'sensing.ground_noise', 'mona.ir_count', 'mona.ir_span',
     'mona.ir_range', 'sensing.ir_robot_factor', 'sensing.robot_detection',
     'sensing.wall_margin', 'sensing.command_latency', 'world.cell_size', 'world.cleaning',
-    'world.control_steps', 'controller.turn_at',
+    'world.control_steps', 'controller.beeclust.turn_at',
 )
 #: The shipped profiles (in the source tree; an installed package has its copy:
 #: :func:`profiles_dir`).
@@ -40,15 +47,9 @@ def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
     """The chain's values in a record's ``parameters`` (``SwarmConfig.to_dict`` form), each as
     JSON so that lists and numbers compare exactly; a key the record lacks is its default."""
     defaults = SwarmConfig().to_dict()
-    parameters = relocate(parameters, moved_keys(SwarmConfig), warn=False)  # older records
-    values = {}
-    for key in MODEL_CHAIN:
-        section, name = key.split('.')
-        fields = parameters.get(section, {})
-        value = fields[name] if isinstance(fields, Mapping) and name in fields else \
-            defaults[section][name]
-        values[key] = json.dumps(value)
-    return values
+    parameters = current_keys(parameters)
+    return {key: json.dumps(mapping_value(parameters, key, mapping_value(defaults, key)))
+            for key in MODEL_CHAIN}
 
 
 def shipped_profiles(folder: Path | None = None) -> dict[str, dict[str, str]]:

@@ -28,8 +28,8 @@ Portable = tuple[list[SwarmConfig], dict[str, bytes]]
 
 def portable(configs: Sequence[SwarmConfig]) -> Portable:
     """A batch with the bytes of every weights file its episodes name."""
-    files = {config.controller.network_weights: Path(config.controller.network_weights)
-             .read_bytes() for config in configs if config.controller.network_weights}
+    files = {config.controller.network.weights: Path(config.controller.network.weights)
+             .read_bytes() for config in configs if config.controller.network.weights}
     return list(configs), files
 
 
@@ -43,9 +43,9 @@ def run_portable(func: Callable[[Sequence[SwarmConfig]], Any], task: Portable) -
         for k, (path, data) in enumerate(files.items()):
             local[path] = Path(scratch) / f'{k}_{Path(path).name}'
             local[path].write_bytes(data)
-        moved = [config.replace(controller={
-            'network_weights': str(local[config.controller.network_weights])})
-            if config.controller.network_weights else config for config in configs]
+        moved = [config.replace(controller={'network': {
+            'weights': str(local[config.controller.network.weights])}})
+            if config.controller.network.weights else config for config in configs]
         return func(moved)
 
 

@@ -19,12 +19,12 @@ A design is a YAML file with one mapping, ``evolve``::
       duration: 1000.0             # s per episode
       sigma: 0.5                   # the initial step size (the genome starts at zero;
                                    # openai_es keeps it)
-      hidden: 8                    # the net: hidden neurons (controller.network_hidden)
-      recurrent: false             # an Elman net (controller.network_recurrent)
-      max_speed: 0.0               # m/s, the net's top wheel speed (controller.
-                                   # network_max_speed; 0: the Mona's top command)
-      clean_stops: false           # the net cleans only standing (controller.
-                                   # network_clean_stops); with max_speed, the fair match
+      hidden: 8                    # the net: hidden neurons (controller.network.hidden)
+      recurrent: false             # an Elman net (controller.network.recurrent)
+      max_speed: 0.0               # m/s, the net's top wheel speed (controller.network.
+                                   # max_speed; 0: the Mona's top command)
+      clean_stops: false           # the net cleans only standing (controller.network.
+                                   # clean_stops); with max_speed, the fair match
       batch: 32                    # at most this many episodes stepped together per worker
       held_out: 100                # then: the best genome and BEECLUST on this many held-out
                                    # seeds (0: none; evolution.compare)
@@ -46,7 +46,7 @@ from typing import Any
 
 import yaml
 
-from mona_controller.network import MAX_HIDDEN, genome_size
+from mona_controller.controllers.network_weights import MAX_HIDDEN, genome_size
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.evolution.strategies import STRATEGIES

@@ -1,6 +1,7 @@
 """A generation's fitness: every genome on the generation's training seeds, in batches.
 
-A genome becomes a weights file (:func:`~mona_controller.network.save_weights`) and a
+A genome becomes a weights file (:func:`~mona_controller.controllers.network_weights.
+save_weights`) and a
 parameter set with ``controller.kind: network``; its fitness is the mean over its episodes of
 the episode's mean cue fraction over time (the metrics' ``mean_cue_fraction`` at every
 sample: lower is better, a cleaner arena). The episodes of all genomes are cut into batches
@@ -19,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from mona_controller.network import save_weights, weights_from_genome
+from mona_controller.controllers.network_weights import save_weights, weights_from_genome
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_batch
 from swarm_supervisor.evolution.design import Design
@@ -39,10 +40,10 @@ def genome_config(design: Design, weights: str | Path, seed: int) -> SwarmConfig
     """The parameter set of one episode of the genome whose weights file is ``weights``."""
     return design.base.replace(
         episode={'population': design.robots, 'duration': design.duration, 'seed': seed},
-        controller={'kind': 'network', 'network_hidden': design.hidden,
-                    'network_recurrent': design.recurrent, 'network_weights': str(weights),
-                    'network_weights_sha256': '', 'network_max_speed': design.max_speed,
-                    'network_clean_stops': design.clean_stops})
+        controller={'kind': 'network', 'network': {
+            'hidden': design.hidden, 'recurrent': design.recurrent, 'weights': str(weights),
+            'weights_sha256': '', 'max_speed': design.max_speed,
+            'clean_stops': design.clean_stops}})
 
 
 def episode_fitness(metrics: Sequence[dict[str, float]]) -> float:

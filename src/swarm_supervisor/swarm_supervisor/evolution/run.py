@@ -35,7 +35,7 @@ import numpy as np
 import yaml
 from tqdm import tqdm
 
-from mona_controller.network import save_weights, weights_from_genome
+from mona_controller.controllers.network_weights import save_weights, weights_from_genome
 from swarm_supervisor.evolution import strategies
 from swarm_supervisor.evolution.cluster import ClusterPool
 from swarm_supervisor.evolution.design import Design, EvolutionError

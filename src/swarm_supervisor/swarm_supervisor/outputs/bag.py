@@ -32,6 +32,7 @@ from mona_controller.contract import (
     WorldState,
     WorldStatus,
 )
+from mona_controller.controllers import states_of
 from swarm_metrics.bags.recording import Closed, Recorder
 from swarm_metrics.bags.writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
@@ -148,7 +149,8 @@ class BagRecorder(EpisodeObserver):
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict(), plugins=tuple(config.plugin_records()))
+            parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
+            states=states_of(config.controller.kind))
         try:
             # The world node's latched scenery reaches the metrics node before any episode.
             self.recorder.obstacles(obstacles_cdr(world.arena))

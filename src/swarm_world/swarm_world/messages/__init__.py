@@ -10,7 +10,7 @@ none of them.
 from mona_controller.exports import lazy_exports
 
 _WHERE = {
-    **dict.fromkeys(('STATE_COLOURS', 'MarkerData', 'obstacle_markers', 'obstacles_from_markers',
+    **dict.fromkeys(('ROBOT_HEIGHT', 'MarkerData', 'obstacle_markers', 'obstacles_from_markers',
                      'source_markers', 'sources_from_markers'), 'markers'),
     **dict.fromkeys(('cue_mono8', 'cue_percent'), 'cue_map'),
     **dict.fromkeys(('TYPESTORE', 'clock_cdr', 'cue_grid_cdr', 'cue_image_cdr', 'float64_cdr',

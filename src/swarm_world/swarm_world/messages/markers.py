@@ -51,12 +51,6 @@ SOURCE_SIZE = 0.08
 SOURCE_COLOUR = (0.85, 0.0, 0.85, 1.0)
 #: The drawn height of a robot's cylinder marker (m) on /world/markers, in both runners.
 ROBOT_HEIGHT = 0.05
-#: RGBA per controller state (FOLLOW, AVOID, WAIT, TURN of mona_controller.controller): the
-#: robot markers' colours in both runners (/world/markers) and the videos'.
-STATE_COLOURS = ((0.20, 0.75, 0.25, 1.0),  # follow: green
-                 (1.00, 0.60, 0.00, 1.0),  # avoid: orange
-                 (0.90, 0.10, 0.10, 1.0),  # wait (and clean): red
-                 (0.25, 0.45, 1.00, 1.0))  # turn: blue
 
 Point = tuple[float, float, float]
 
