@@ -18,8 +18,7 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics import completeness
-from swarm_metrics.analysis import recompute
-from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bag_reader import BagError, EpisodeBag, McapScan, find_mcap, read_episode_bag
 from swarm_metrics.completeness import Finding
 from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
 from swarm_supervisor.cli.arguments import bounded
@@ -165,20 +164,15 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
         RecordExists: ``out`` holds a record and not ``overwrite``.
     """
     bag, note = with_recovery(path, read_episode_bag)
-    findings = completeness.check_announcement(bag)
-    if not findings:
-        try:
-            config = from_mapping(SwarmConfig, bag.announcement['parameters'])
-        except ParameterError as error:
-            findings = [Finding('announcement', '/episode',
-                                f'{bag.path}: the announced parameters are invalid: {error}')]
-    if findings:
-        raise IncompleteBagError(bag.path, findings, 'it cannot be analysed without its '
-                                 'announcement, even with --allow-incomplete', note)
-    duration = config.episode.duration
+    config, invalid = announced_config(bag)
+    snapshot_times = () if config is None else (config.study.snapshot_times
+                                                + (config.episode.duration,))
     started = time.perf_counter()
-    result = recompute(bag, snapshot_times=config.study.snapshot_times + (duration,))
-    findings = completeness.check_recomputation(bag, result)
+    result, findings = completeness.check_bag(bag, snapshot_times)
+    if result is None or config is None:
+        raise IncompleteBagError(bag.path, findings if result is None else invalid,
+                                 'it cannot be analysed without its announcement, even with '
+                                 '--allow-incomplete', note)
     if findings and not allow_incomplete:
         raise IncompleteBagError(bag.path, findings, '--allow-incomplete analyses it anyway',
                                  note)
@@ -215,6 +209,18 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
     if findings:
         text += f'\n{completeness.describe(findings)}'
     return text + (f'\n  note: {note}' if note else '')
+
+
+def announced_config(bag: EpisodeBag) -> tuple[SwarmConfig | None, list[Finding]]:
+    """The run's whole configuration from the bag's announcement: (config, []), or (None,
+    an ``announcement`` finding) when it is missing or its parameters are not this version's
+    (the completeness checks read only the sections a recomputation needs)."""
+    parameters = (bag.announcement or {}).get('parameters')
+    try:
+        return from_mapping(SwarmConfig, parameters), []
+    except (ParameterError, TypeError, AttributeError) as error:
+        return None, [Finding('announcement', '/episode',
+                              f'{bag.path}: the announced parameters are invalid: {error}')]
 
 
 # --- recover ------------------------------------------------------------------------------
