@@ -218,19 +218,18 @@ def check_cleaning(statuses: Sequence[tuple[int, dict]], cleaning: Sequence[int]
         episode: the episode number the announcement gives.
         start_ns: sim time of t = 0, to report times.
     """
-    final = next((status for _, status in reversed(statuses)
-                  if status.get('episode') == episode and status.get('state') == 'finished'),
-                 None)
-    counted = None if final is None else final.get('cleaning_events')
+    final: dict = next((status for _, status in reversed(statuses)
+                        if status.get('episode') == episode
+                        and status.get('state') == 'finished'), {})
+    counted, end_ns = final.get('cleaning_events'), final.get('time_ns')
     if not isinstance(counted, int) or isinstance(counted, bool):
         return []
-    end_ns = final.get('time_ns')
     held = sum(1 for t in cleaning if not isinstance(end_ns, int) or start_ns <= t <= end_ns)
     if held == counted:
         return []
     return [Finding('cleaning', CLEANING,
                     f'{held} cleaning events are recorded, the world counted {counted} up to '
-                    f'its end: the rebuilt cue misses what the others cleaned')]
+                    f"its end: the cue rebuilt from the record is not the world's")]
 
 
 def check_cue_maps(checked: int, max_diff: int, differing: int = 0,

@@ -109,7 +109,6 @@ class Episode:
     started: set[str] = dataclasses.field(default_factory=set)
     poses_seen: int = 0  #: /world/poses messages of the episode, t = 0's included
     states_seen: int = 0  #: /world/robot_states messages of the episode
-    states_recorded: int = 0
     #: pose index -> log time, of sampled poses whose states have not arrived yet
     states_wanted: dict[int, int] = dataclasses.field(default_factory=dict)
     #: pose index -> states that arrived before their pose
@@ -428,7 +427,6 @@ class Recorder:
 
     def _write_states(self, stamp: int, data: bytes) -> None:
         self.write(ROBOT_STATES, stamp, data)
-        self.episode.states_recorded += 1
         if stamp == self.episode.setup.start_ns:
             self.episode.started.add(ROBOT_STATES)
 
