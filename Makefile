@@ -28,7 +28,7 @@ test: lint typecheck firmware-tools browser-tools
 	$(PY) -m pytest
 
 # The extended tier (not in make test or CI): other forms of tests make test runs once
-# (pyproject.toml's 'extended' marker), e.g. a metrics node stalled at every moment
+# (pyproject.toml's 'extended' marker), e.g. SIGTERM 20 s into a 60-robot start-up
 test-extended: venv firmware-tools
 	$(PY) -m pytest -m extended
 

@@ -8,14 +8,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
 from swarm_metrics.bags.analysis import recompute
+from swarm_metrics.bags.completeness import check_bag, failed_checks
 from swarm_metrics.bags.reader import McapScan, find_mcap, read_episode_bag
 from swarm_metrics.bags.recording import Recorder
 from swarm_supervisor.config import load_config
-from swarm_world.messages.cdr import states_from_cdr
+from swarm_world.messages.cdr import pose_array_cdr, states_from_cdr
 
 from bagtools import embedded_episode_bag, string_cdr
 
@@ -27,12 +29,21 @@ def world_messages(tmp_path_factory) -> tuple[list[tuple[str, bytes]], list[dict
     """(the messages of a 12 s episode as (topic, CDR) in the world's order, its rows)."""
     path = tmp_path_factory.mktemp('source') / 'bag'
     rows = embedded_episode_bag(path, CONFIG, map_period=4.0)
+    return world_stream(path), rows
+
+
+def world_stream(path: Path) -> list[tuple[str, bytes]]:
+    """What the world and the supervisor sent for the episode of the bag at ``path``."""
     messages = [(m.topic, m.data) for m in McapScan(find_mcap(path))
                 if not m.topic.startswith('/metrics/')]
     # The bag keeps the states of t = 0 but not its pose (t = 0's sample is the
-    # announcement's): the world sent both, so feed neither.
-    messages.remove(next(m for m in messages if m[0] == ROBOT_STATES))
-    return messages, rows
+    # announcement's): the world sent both, the states first.
+    announced = json.loads(next(data for topic, data in messages
+                                if topic == EPISODE)[8:].rstrip(b'\x00'))
+    first_states = next(i for i, m in enumerate(messages) if m[0] == ROBOT_STATES)
+    messages.insert(first_states + 1, (POSES, pose_array_cdr(np.array(announced['poses']),
+                                                             announced['start_ns'])))
+    return messages
 
 
 def feed(recorder: Recorder, messages: list[tuple[str, bytes]]) -> None:
@@ -76,23 +87,28 @@ def test_messages_before_their_announcement_are_filed(world_messages, tmp_path):
     assert recompute(read_episode_bag(closed.path)).rows == rows
 
 
-@pytest.mark.parametrize('lose, lacks', [
-    (CLEANING, 'cleaning events'),  # a cleaning event the world counted never arrived
-    (POSES, 'metric samples'),  # the first sampled pose: the t = 1 s sample is missing
-    (STATUS, 'did not report the episode finished'),
+@pytest.mark.parametrize('lose, fails', [
+    # a cleaning event the world counted never arrived
+    (CLEANING, {'cleaning', 'cue_maps'}),
+    (POSES, {'samples'}),  # the first sampled pose after t = 0: the t = 1 s sample is missing
+    (STATUS, {'finished'}),  # the last status, the finished one
 ])
-def test_an_incomplete_record_says_what_it_lacks(world_messages, tmp_path, lose, lacks):
+def test_an_incomplete_record_says_what_it_lacks(world_messages, tmp_path, lose, fails):
     messages, _ = world_messages
+    kinds = [topic for topic, _ in messages]
     if lose == STATUS:  # the last status is the finished one
-        index = max(i for i, (topic, _) in enumerate(messages) if topic == STATUS)
-    else:
-        index = next(i for i, (topic, _) in enumerate(messages) if topic == lose)
+        index = max(i for i, topic in enumerate(kinds) if topic == STATUS)
+    else:  # the first of its kind after t = 0's pose
+        index = next(i for i, topic in enumerate(kinds) if topic == lose
+                     and i > kinds.index(POSES))
     recorder = make_recorder(tmp_path)
     feed(recorder, messages[:index] + messages[index + 1:])
     # What the final status counts is missing: the recorder waits (the node, finish_timeout).
     assert recorder.done() == (lose == POSES)
     closed, _ = recorder.close()
-    assert any(lacks in problem for problem in closed.problems), closed.problems
+    # The verdict is the one analyze gives on the same bag.
+    assert set(failed_checks(closed.findings)) == fails, closed.problems
+    assert list(closed.findings) == check_bag(read_episode_bag(closed.path))[1]
 
 
 def test_an_episode_that_ends_between_sample_times_is_complete(tmp_path):
@@ -100,8 +116,7 @@ def test_an_episode_that_ends_between_sample_times_is_complete(tmp_path):
     config = CONFIG.replace(episode={'duration': 5.0})
     rows = embedded_episode_bag(tmp_path / 'source', config, map_period=4.0)
     recorder = make_recorder(tmp_path / 'out')
-    feed(recorder, [(m.topic, m.data) for m in McapScan(find_mcap(tmp_path / 'source'))
-                    if not m.topic.startswith('/metrics/')])
+    feed(recorder, world_stream(tmp_path / 'source'))
     assert recorder.done()
     closed, _ = recorder.close()
     assert closed.problems == ()
@@ -161,7 +176,8 @@ def test_robot_states_are_paired_with_their_poses_whichever_comes_first(world_me
     messages, _ = world_messages
     kinds = [topic for topic, _ in messages]
     pairs = [i for i in range(len(kinds) - 1) if kinds[i:i + 2] == [POSES, ROBOT_STATES]]
-    assert len(pairs) == kinds.count(ROBOT_STATES) > 10  # the bag has poses, then states
+    # The bag has poses, then states; t = 0's pair is as the world sent it, states first.
+    assert len(pairs) == kinds.count(ROBOT_STATES) - 1 > 10
     if first == ROBOT_STATES:  # each states message before its poses, as the world sends
         messages = list(messages)
         for i in pairs:
@@ -175,7 +191,8 @@ def test_robot_states_are_paired_with_their_poses_whichever_comes_first(world_me
     sent = [states_from_cdr(data).tobytes() for topic, data in messages
             if topic == ROBOT_STATES]
     assert [row.tobytes() for _, row in bag.states] == sent
-    assert [t for t, _ in bag.states] == [t for t, _ in bag.poses]  # at the poses' times
+    start = bag.announcement['start_ns']  # t = 0's pose is the announcement's, not recorded
+    assert [t for t, _ in bag.states] == [start] + [t for t, _ in bag.poses]  # the poses' times
     assert len({row.tobytes() for _, row in bag.states}) > 1  # not one state repeated
 
 
@@ -184,4 +201,5 @@ def test_a_record_without_robot_states_says_so(world_messages, tmp_path):
     recorder = make_recorder(tmp_path)
     feed(recorder, [m for m in messages if m[0] != ROBOT_STATES])
     closed, _ = recorder.close()
-    assert any('no /world/robot_states' in problem for problem in closed.problems)
+    assert failed_checks(closed.findings) == ['robot_states'], closed.problems
+    assert recorder.episode is None and not closed.complete

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -103,6 +105,11 @@ class SwarmRun:
         self.wait_for(lambda: 'episode 0 running' in self.log('world'), 'running episode')
         time.sleep(after)
 
+    def watch_status(self) -> StatusWatch:
+        """A subscriber to the run's /world/status in a process of its own (a context
+        manager): ``.latest`` is the newest status document."""
+        return StatusWatch(self.env(), self.out.parent / f'{self.out.name}.status')
+
     @property
     def domain(self) -> int:
         """The run's ROS domain id."""
@@ -128,3 +135,50 @@ class SwarmRun:
                     os.killpg(pgid, signal.SIGKILL)
         if (self.out / 'ros_env.sh').exists():
             remove_shm_leftovers(self.domain, self.seen_shm)
+
+
+#: Prints every /world/status message, one JSON document per line.
+WATCH_STATUS = """
+import rclpy
+from std_msgs.msg import String
+from mona_controller import qos
+rclpy.init()
+node = rclpy.create_node('status_watch')
+node.create_subscription(String, qos.STATUS, lambda msg: print(msg.data, flush=True),
+                         qos.STATUS_QOS)
+rclpy.spin(node)
+"""
+
+
+class StatusWatch:
+    """The world's /world/status as a run's subscriber process sees it (see
+    :meth:`SwarmRun.watch_status`)."""
+
+    def __init__(self, env: dict[str, str], log: Path) -> None:
+        self.env, self.log = env, log
+        self.latest: dict = {}
+
+    def __enter__(self) -> StatusWatch:
+        with open(self.log, 'wb') as log:
+            self.process = subprocess.Popen([sys.executable, '-c', WATCH_STATUS],
+                                            stdout=subprocess.PIPE, stderr=log, env=self.env,
+                                            start_new_session=True)
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+        return self
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            with contextlib.suppress(ValueError):
+                self.latest = json.loads(line)
+
+    def steps_left(self) -> int | None:
+        """Steps the running episode has still to go by the latest status (None: not
+        running)."""
+        latest = self.latest
+        if latest.get('state') != 'running':
+            return None
+        return latest['steps'] - latest['step']
+
+    def __exit__(self, *exc: object) -> None:
+        stop_group(self.process, grace=10.0)

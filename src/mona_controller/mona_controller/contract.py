@@ -152,10 +152,12 @@ class RecorderReport:
     """One recorder's word on one episode (/recorders, std_msgs/String JSON).
 
     A recorder (the metrics node) says ``recording`` once the episode's bag is open and its
-    subscriptions to the world's topics are matched; the world starts step 0 only then. While
-    recording it repeats the report with ``recorded_ns``, the sim time up to which its record
-    is whole, so the world never runs more than ``recorder_lag`` ahead of it. ``closed`` ends
-    the episode's record, with ``complete`` and the ``problems`` found if it is not.
+    subscriptions to the world's topics are matched (``recorded_ns`` = ``start_ns - 1``); the
+    world publishes the episode's start only then. While recording it repeats the report with
+    ``recorded_ns``, the sim time up to which its record is whole: the world takes its first
+    step once that reaches ``start_ns`` (the start is recorded) and never runs more than
+    ``recorder_lag`` ahead of it. ``closed`` ends the episode's record, with ``complete`` and
+    the ``problems`` found if it is not (the completeness verdict on the bag).
     """
 
     recorder: str  #: the recorder's node name, as the world's ``recorders`` parameter lists it

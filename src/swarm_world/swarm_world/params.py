@@ -222,10 +222,10 @@ class WorldNodeParams:
     recorder_lag: float = param(10.0, unit='s (sim)', low=0.0, high=1e7,
                                 doc='lockstep: never step more than this ahead of the slowest '
                                     "recorder's whole record (0 = do not wait for recorders "
-                                    'while running)')
+                                    'while running; else at least metrics.sample_period)')
     recorder_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
-                                    doc='how long a running episode waits for a recorder that '
-                                        'fell behind before the episode fails')
+                                    doc='how long an episode waits for a recorder to record its '
+                                        'start, or one that fell behind, before it fails')
     start_timeout: float = param(60.0, unit='s (wall)', low=0.1, high=86400.0,
                                  doc='how long to wait for every controller and recorder to '
                                      'connect')

@@ -7,6 +7,7 @@ cleaning event makes the rebuilt cue drift from the world's. Each check returns 
 
 * ``announcement``: the /episode announcement is there and parses;
 * ``finished``: the world's /world/status with ``"state": "finished"`` for the episode is there;
+* ``cleaning``: every cleaning event that finished status counts is there;
 * ``samples``: the metric samples start at t = 0 and miss no ``sample_period`` boundary up to
   the episode's duration (the recomputed rows, and the online /metrics/* samples if any);
 * ``cue_maps``: every recorded /world/cue_map equals the cue rebuilt from the cleaning record,
@@ -19,6 +20,11 @@ cleaning event makes the rebuilt cue drift from the world's. Each check returns 
 
 Pure Python (no ROS): the inputs are the tables of :mod:`swarm_metrics.bags.reader` and the
 :class:`~swarm_metrics.bags.analysis.Recomputation`, or plain numbers for the individual checks.
+
+:func:`check_bag` is *the* verdict on a bag: the recorder that closes it, the launcher that
+exits 0 for a run, ``analyze``, ``replay`` and (through the findings ``analyze`` records)
+``study --from-episodes`` all call it, so a bag one of them accepts, every one accepts.
+:func:`check_bag_file` is the same on a bag read from disk as it is (no recovery).
 """
 
 from __future__ import annotations
@@ -26,18 +32,19 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mona_controller.contract import ROBOT_STATES, SOURCES
+from mona_controller.contract import CLEANING, ROBOT_STATES, SOURCES
 from swarm_metrics.bags.analysis import Recomputation, episode_setup, recompute
-from swarm_metrics.bags.reader import STATUS, BagError, EpisodeBag
+from swarm_metrics.bags.reader import STATUS, BagError, EpisodeBag, read_episode_bag
 from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.
-CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics', 'robot_states',
-          'sources')
+CHECKS = ('readable', 'announcement', 'finished', 'cleaning', 'samples', 'cue_maps',
+          'online_metrics', 'robot_states', 'sources')
 #: world.cleaning modes whose cue the cleaning record rebuilds exactly (swarm_world.cue.clean).
 DETERMINISTIC_CLEANING = frozenset({'monotone', 'literal'})
 #: Where the sample checks look.
@@ -197,6 +204,32 @@ def check_finished(statuses: Sequence[tuple[int, dict]], episode: int,
                     f'record may end before the episode did')]
 
 
+def check_cleaning(statuses: Sequence[tuple[int, dict]], cleaning: Sequence[int], episode: int,
+                   start_ns: int = 0) -> list[Finding]:
+    """The ``cleaning`` check: the bag holds as many /world/cleaning events up to the world's
+    ``finished`` status as that status counts (``cleaning_events``; a world that does not
+    count them passes). A lost event the cue maps would show only if a map follows it.
+
+    Args:
+        statuses: [(log time ns, status document)].
+        cleaning: the log times (ns) of the recorded cleaning events.
+        episode: the episode number the announcement gives.
+        start_ns: sim time of t = 0, to report times.
+    """
+    final: dict = next((status for _, status in reversed(statuses)
+                        if status.get('episode') == episode
+                        and status.get('state') == 'finished'), {})
+    counted, end_ns = final.get('cleaning_events'), final.get('time_ns')
+    if not isinstance(counted, int) or isinstance(counted, bool):
+        return []
+    held = sum(1 for t in cleaning if not isinstance(end_ns, int) or start_ns <= t <= end_ns)
+    if held == counted:
+        return []
+    return [Finding('cleaning', CLEANING,
+                    f'{held} cleaning events are recorded, the world counted {counted} up to '
+                    f"its end: the cue rebuilt from the record is not the world's")]
+
+
 def check_cue_maps(checked: int, max_diff: int, differing: int = 0,
                    first_diff_s: float | None = None,
                    cleaning: str = 'monotone') -> list[Finding]:
@@ -317,6 +350,7 @@ def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]
     setup = result.setup
     start, period = setup.start_ns, setup.metrics.sample_period
     findings = check_finished(bag.status, setup.episode, start)
+    findings += check_cleaning(bag.status, [t for t, _ in bag.cleaning], setup.episode, start)
     findings += check_rows(result.rows, setup.duration, period)
     findings += check_online(bag.metrics, start, setup.duration, period)
     first_map = (None if result.cue_map_first_diff_ns is None
@@ -338,10 +372,11 @@ def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]
 
 def check_bag(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()
               ) -> tuple[Recomputation | None, list[Finding]]:
-    """Recompute a bag's metrics and run every check.
+    """Recompute a bag's metrics and run every check: the one verdict on a bag.
 
     Args:
-        snapshot_times: passed to :func:`~swarm_metrics.bags.analysis.recompute`.
+        snapshot_times: passed to :func:`~swarm_metrics.bags.analysis.recompute` (they change
+            what the recomputation keeps, never the findings).
 
     Returns:
         (the recomputation, or None when the announcement check failed; the findings).
@@ -354,3 +389,13 @@ def check_bag(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()
         return None, findings
     result = recompute(bag, snapshot_times)
     return result, check_recomputation(bag, result)
+
+
+def check_bag_file(path: str | Path) -> list[Finding]:
+    """:func:`check_bag` on the bag at ``path`` as it is on disk, read strictly (a bag that
+    does not read is one ``readable`` finding): a recorder's verdict on the bag it closed, and
+    the launcher's on each bag of its run."""
+    try:
+        return check_bag(read_episode_bag(path))[1]
+    except BagError as error:
+        return [Finding('readable', str(path), str(error))]

@@ -5,8 +5,16 @@ arrived, keeps one bag per announced episode (:class:`~swarm_metrics.bags.writer
 EpisodeBagWriter`), drives the :class:`~swarm_metrics.bags.analysis.MetricsReplica` that computes
 the metrics online, and knows when its record of an episode is whole: it has the world's
 final status and everything that status counts (the poses up to its time, its
-``cleaning_events``), and a metric sample for every sample period from t = 0. The node
-(:mod:`swarm_metrics.ros.metrics_node`) subscribes, calls it, and publishes what it returns.
+``cleaning_events``), and a metric sample for every sample period from t = 0. Whether the
+closed record is complete is not its own opinion: :meth:`Recorder.close` reads the bag back
+and judges it with :func:`swarm_metrics.bags.completeness.check_bag`, the function every consumer
+of a bag uses. The node (:mod:`swarm_metrics.ros.metrics_node`) subscribes, calls it, and
+publishes what it returns.
+
+The start of an episode is recorded before the world steps: the world publishes t = 0's cue
+map, sources, states and poses, then holds its first step until every recorder's
+``recorded_ns`` reaches ``start_ns`` (docs/interfaces.md, "Recorders"), which
+:attr:`Episode.recorded_ns` does only once those are in the bag.
 
 ``/world/robot_states`` has no stamp: the world publishes one with every ``/world/poses``,
 just before it, so the n-th states message of an episode belongs to its n-th poses message;
@@ -41,6 +49,7 @@ from mona_controller.contract import (
     topic_of,
 )
 from swarm_metrics.bags.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
+from swarm_metrics.bags.completeness import Finding, check_bag_file
 from swarm_metrics.bags.reader import BagError, RawMessage, decode, decode_json, poses_of
 from swarm_metrics.bags.writer import EpisodeBagWriter, offered
 from swarm_metrics.metrics import metric_names
@@ -51,6 +60,12 @@ STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type
 EARLY_LIMIT = 20_000
 #: A metric row as the node publishes it: (log time ns, {metric: value}).
 Row = tuple[int, dict[str, float]]
+#: What a record must hold at the episode's ``start_ns`` (beside the announcement and the
+#: t = 0 sample it gives): the completeness checks demand the states and the sources there,
+#: and the cue map of t = 0 makes the bag the embedded runner's. The world publishes these
+#: on keep-last-1 (map, sources) or paired (states) topics before its first step, and holds
+#: that step until the record has them.
+START = frozenset({CUE_MAP, SOURCES, ROBOT_STATES})
 
 
 def stamp_ns(data: bytes) -> int:
@@ -86,9 +101,10 @@ class Episode:
     last_pose_ns: int = 0
     last_map_ns: int = -1
     last_sources_ns: int = -1  #: the latest /world/sources seen (-1: none yet)
+    #: The topics of :data:`START` recorded at ``start_ns`` so far.
+    started: set[str] = dataclasses.field(default_factory=set)
     poses_seen: int = 0  #: /world/poses messages of the episode, t = 0's included
     states_seen: int = 0  #: /world/robot_states messages of the episode
-    states_recorded: int = 0
     #: pose index -> log time, of sampled poses whose states have not arrived yet
     states_wanted: dict[int, int] = dataclasses.field(default_factory=dict)
     #: pose index -> states that arrived before their pose
@@ -101,7 +117,10 @@ class Episode:
 
     @property
     def recorded_ns(self) -> int:
-        """Sim time up to which the record is whole (the last sample's time)."""
+        """Sim time up to which the record is whole: the last sample's time, once the start
+        (:data:`START` at ``start_ns``) is recorded; ``start_ns - 1`` before."""
+        if not self.started >= START:
+            return self.setup.start_ns - 1
         return self.setup.start_ns + max(self.samples - 1, 0) * self.setup.sample_ns
 
     def all_arrived(self) -> bool:
@@ -117,45 +136,31 @@ class Episode:
                 and (self.states_seen == 0 or self.states_seen >= self.poses_seen)
                 and (self.last_sources_ns < 0 or self.last_sources_ns >= end_ns))
 
-    def problems(self) -> list[str]:
-        """What the record lacks (nothing: it is complete)."""
-        problems = []
-        final = self.final
-        if final is None or final.state is not WorldState.FINISHED:
-            problems.append('the world did not report the episode finished'
-                            + (f' (it {final.state.value}: {final.error})' if final else ''))
-        end_ns = self.setup.end_ns if final is None else final.time_ns
-        expected = (end_ns - self.setup.start_ns) // self.setup.sample_ns + 1
-        if self.samples != expected:
-            problems.append(f'{self.samples} of {expected} metric samples (t = 0 .. '
-                            f'{(expected - 1) * self.setup.metrics.sample_period:g} s)')
-        counted = None if final is None else final.cleaning_events
-        if counted is not None and self.cleaning != counted:
-            problems.append(f'{self.cleaning} of the {counted} cleaning events')
-        if not self.states_seen:
-            problems.append(f'no {ROBOT_STATES} (the world publishes one with every '
-                            f'{POSES})')
-        elif self.states_wanted:
-            problems.append(f'{len(self.states_wanted)} of the '
-                            f'{len(self.states_wanted) + self.states_recorded} sampled poses '
-                            f'have no {ROBOT_STATES}')
-        if self.last_sources_ns < 0:
-            problems.append(f'no {SOURCES}')
-        if self.replica.late_events:
-            problems.append(f'{self.replica.late_events} cleaning events arrived after their '
-                            'time was sampled')
-        return problems
-
 
 @dataclasses.dataclass(frozen=True)
 class Closed:
-    """An episode's record, closed."""
+    """An episode's record, closed, with the completeness verdict on its bag."""
 
     episode: int
     start_ns: int
     path: Path
     messages: int
-    problems: tuple[str, ...]  #: empty: the record is complete
+    #: What :func:`~swarm_metrics.completeness.check_bag` found (empty: the record is
+    #: complete; None: closed without a verdict, see :meth:`Recorder.close`).
+    findings: tuple[Finding, ...] | None
+
+    @property
+    def complete(self) -> bool:
+        """The bag passed every completeness check."""
+        return self.findings == ()
+
+    @property
+    def problems(self) -> tuple[str, ...]:
+        """What the record lacks, one line each (empty: it is complete)."""
+        if self.findings is None:
+            return ('not judged: closed before the episode ended; `mona-swarm analyze` '
+                    'judges it',)
+        return tuple(map(str, self.findings))
 
 
 class Announced(NamedTuple):
@@ -258,21 +263,27 @@ class Recorder:
         self._early_status = None
         return rows
 
-    def close(self) -> tuple[Closed | None, list[Row]]:
-        """Take the last sample and close the bag (nothing open: (None, []))."""
+    def close(self, *, judge: bool = True) -> tuple[Closed | None, list[Row]]:
+        """Take the last sample, close the bag and judge it (nothing open: (None, [])).
+
+        The verdict is :func:`~swarm_metrics.completeness.check_bag_file` on the closed bag
+        as it is on disk, the judgement ``analyze`` and the launcher pass on it too.
+        ``judge=False`` skips it (a node stopped before the episode ended: its bag cannot be
+        complete, and reading it back could outlast the stop signal's patience).
+        """
         episode = self.episode
         if episode is None:
             return None, []
         rows: list[Row] = []
         try:
             rows = self._samples(episode.replica.finish())
-            problems = tuple(episode.problems())
         finally:
             self.episode = None
             episode.bag.close()
             self._closed_end_ns = max(self._closed_end_ns, self.now_ns, episode.last_pose_ns)
+        findings = tuple(check_bag_file(episode.bag.path)) if judge else None
         return Closed(episode.setup.episode, episode.setup.start_ns, episode.bag.path,
-                      episode.bag.messages, problems), rows
+                      episode.bag.messages, findings), rows
 
     def done(self) -> bool:
         """The open episode ended and everything the world counted has arrived."""
@@ -377,6 +388,8 @@ class Recorder:
             self.write(POSES, stamp, data)
         if sampled:
             self._want_states(stamp)
+            if episode.counted is not None:  # the status may have confirmed its cleaning
+                rows += episode.replica.advance(stamp)  # first (a world that holds here)
         else:
             episode.states_early.pop(episode.poses_seen, None)
             episode.poses_seen += 1
@@ -410,17 +423,22 @@ class Recorder:
 
     def _write_states(self, stamp: int, data: bytes) -> None:
         self.write(ROBOT_STATES, stamp, data)
-        self.episode.states_recorded += 1
+        if stamp == self.episode.setup.start_ns:
+            self.episode.started.add(ROBOT_STATES)
 
     def sources(self, data: bytes) -> None:
         """A /world/sources message: recorded at its markers' stamp, as often as the cue map
         (``cue_map_period``, and the one that ends the episode)."""
         stamp = markers_stamp_ns(data)
         episode = self.episode
-        if episode is None or stamp is None or not (
-                episode.setup.start_ns <= stamp <= episode.setup.end_ns):
-            return  # no episode, or another episode's (a latched message of the last one)
-        self.periodic(SOURCES, data, stamp)
+        if stamp is None:
+            return
+        if episode is None:
+            if stamp > self._closed_end_ns:
+                self._keep_early(SOURCES, data)  # before the announcement (a hasty world)
+            return
+        if episode.setup.start_ns <= stamp <= episode.setup.end_ns:  # else: the last one's
+            self.periodic(SOURCES, data, stamp)
 
     def _cleaning(self, stamp: int, data: bytes) -> list[Row]:
         episode = self.episode
@@ -466,6 +484,8 @@ class Recorder:
                 or stamp >= self.episode.setup.end_ns):
             self._last_recorded[topic] = stamp
             self.write(topic, stamp, data)
+            if stamp == self.episode.setup.start_ns:
+                self.episode.started.add(topic)
 
     def stamped(self, topic: str, data: bytes) -> None:
         """Record a message with a header (record_all's per-robot topics) at its stamp."""

@@ -12,10 +12,12 @@ SIGINT/SIGTERM, 3 when the world stops talking while an episode runs, 2 for bad 
 the bag is closed on every path.
 
 The node is a *recorder* (docs/interfaces.md, "Recorders"): on /recorders it says when an
-episode's bag is open and listening (the world starts step 0 only then), how far its record is
-whole (the world never runs more than ``recorder_lag`` ahead), and, when it closes the bag,
-whether the record is complete. It closes a finished episode as soon as everything the
-world's final status counts has arrived, or after ``finish_timeout`` as incomplete.
+episode's bag is open and listening (the world publishes the episode's start only then), how
+far its record is whole (the world takes its first step once the start is recorded, and
+never runs more than ``recorder_lag`` ahead), and, when it closes the bag, the completeness
+verdict on it (:func:`swarm_metrics.completeness.check_bag`, read back from disk). It closes a
+finished episode as soon as everything the world's final status counts has arrived, or after
+``finish_timeout``, and judges what it has.
 """
 
 from __future__ import annotations
@@ -119,6 +121,7 @@ class MetricsNode(Node):
                                     subscriptions[qos.ROBOT_STATES]]
         self._robot_subscriptions: set[int] = set()
         self._confirmed = False  # the open episode's "recording" report is out
+        self._reported_ns: int | None = None  # the recorded_ns of the latest such report
         self._closing_at: float | None = None  # wall time to give up on the episode's rest
         self._shutdown_requested = False
         self._last_world = self._last_tick = time.monotonic()
@@ -147,21 +150,29 @@ class MetricsNode(Node):
     # --- what the node says ------------------------------------------------------------
 
     def _publish(self, rows: list[Row]) -> None:
-        """Publish metric rows; a new sample also tells the world how far the record is."""
+        """Publish metric rows, then tell the world how far the record is whole."""
         for _, row in rows:
             for name, publisher in self.metric_pubs.items():
                 publisher.publish(Float64(data=float(row[name])))
-        if rows and self._confirmed:
+        self._progress()
+
+    def _progress(self) -> None:
+        """Repeat the "recording" report when the record is whole further than it said (a
+        new sample; the episode's start recorded): the world holds until it is."""
+        episode = self.recorder.episode
+        if self._confirmed and episode is not None and \
+                episode.recorded_ns != self._reported_ns:
             self._report(RecorderState.RECORDING)
 
     def _report(self, state: RecorderState, closed: Closed | None = None) -> None:
         """Say on /recorders what this recorder does with the episode (open or ``closed``)."""
         if closed is not None:
             report = RecorderReport(self.get_name(), closed.episode, closed.start_ns, state,
-                                    complete=not closed.problems, problems=closed.problems,
+                                    complete=closed.complete, problems=closed.problems,
                                     path=str(closed.path))
         else:
             episode = self.recorder.episode
+            self._reported_ns = episode.recorded_ns
             report = RecorderReport(self.get_name(), episode.setup.episode,
                                     episode.setup.start_ns, state, episode.recorded_ns,
                                     path=str(episode.bag.path))
@@ -178,8 +189,9 @@ class MetricsNode(Node):
             self._report(RecorderState.RECORDING)
 
     def close(self, reason: str, *, publish: bool = True) -> None:
-        """Take the last sample, close the bag and report (safe to call when none is open)."""
-        closed, rows = self.recorder.close()
+        """Take the last sample, close the bag, judge it and report (safe to call when none
+        is open). Without ``publish`` (the node is stopping) the bag is closed unjudged."""
+        closed, rows = self.recorder.close(judge=publish)
         self._closing_at, self._confirmed = None, False
         if closed is None:
             return
@@ -187,7 +199,10 @@ class MetricsNode(Node):
             self._publish(rows)
             self._report(RecorderState.CLOSED, closed)
         text = f'closed {closed.path} ({closed.messages} messages)'
-        if closed.problems:
+        if closed.findings is None:
+            self.get_logger().warning(f'{text} without a verdict ({reason}): `mona-swarm '
+                                      'analyze` judges it')
+        elif closed.findings:
             self.get_logger().error(f'{text}, INCOMPLETE: {"; ".join(closed.problems)} '
                                     f'({reason})')
         else:
@@ -250,10 +265,12 @@ class MetricsNode(Node):
 
     def _on_states(self, topic: str, data: bytes) -> None:
         self.recorder.robot_states(data)
+        self._progress()
         self._close_if_done()
 
     def _on_sources(self, topic: str, data: bytes) -> None:
         self.recorder.sources(data)
+        self._progress()
         self._close_if_done()
 
     def _on_unstamped(self, topic: str, data: bytes) -> None:

@@ -20,9 +20,8 @@ from pathlib import Path
 from mona_controller import plugins
 from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics.bags import completeness
-from swarm_metrics.bags.analysis import recompute
 from swarm_metrics.bags.completeness import Finding
-from swarm_metrics.bags.reader import BagError, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.reader import BagError, EpisodeBag, McapScan, find_mcap, read_episode_bag
 from swarm_metrics.bags.recover import SUFFIX, recover_bag, with_recovery
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.cli.bag_outputs import (
@@ -171,21 +170,17 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
     # The run's plug-ins, the very code it ran: their metrics are recomputed, their layout
     # rebuilt (a missing or changed file is refused, naming it).
     loaded = plugins.ensure(plugins.from_records(bag.plugins, f'{bag.path}: plugins'))
-    findings = completeness.check_announcement(bag)
-    if not findings:
-        try:
-            config = dataclasses.replace(from_mapping(SwarmConfig, bag.announcement['parameters']),
-                                         plugins=loaded)
-        except ParameterError as error:
-            findings = [Finding('announcement', '/episode',
-                                f'{bag.path}: the announced parameters are invalid: {error}')]
-    if findings:
-        raise IncompleteBagError(bag.path, findings, 'it cannot be analysed without its '
-                                 'announcement, even with --allow-incomplete', note)
-    duration = config.episode.duration
+    config, invalid = announced_config(bag)
+    if config is not None:
+        config = dataclasses.replace(config, plugins=loaded)
+    snapshot_times = () if config is None else (config.study.snapshot_times
+                                                + (config.episode.duration,))
     started = time.perf_counter()
-    result = recompute(bag, snapshot_times=config.study.snapshot_times + (duration,))
-    findings = completeness.check_recomputation(bag, result)
+    result, findings = completeness.check_bag(bag, snapshot_times)
+    if result is None or config is None:
+        raise IncompleteBagError(bag.path, findings if result is None else invalid,
+                                 'it cannot be analysed without its announcement, even with '
+                                 '--allow-incomplete', note)
     if findings and not allow_incomplete:
         raise IncompleteBagError(bag.path, findings, '--allow-incomplete analyses it anyway',
                                  note)
@@ -222,6 +217,18 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
     if findings:
         text += f'\n{completeness.describe(findings)}'
     return text + (f'\n  note: {note}' if note else '')
+
+
+def announced_config(bag: EpisodeBag) -> tuple[SwarmConfig | None, list[Finding]]:
+    """The run's whole configuration from the bag's announcement: (config, []), or (None,
+    an ``announcement`` finding) when it is missing or its parameters are not this version's
+    (the completeness checks read only the sections a recomputation needs)."""
+    parameters = (bag.announcement or {}).get('parameters')
+    try:
+        return from_mapping(SwarmConfig, parameters), []
+    except (ParameterError, TypeError, AttributeError) as error:
+        return None, [Finding('announcement', '/episode',
+                              f'{bag.path}: the announced parameters are invalid: {error}')]
 
 
 # --- recover ------------------------------------------------------------------------------

@@ -249,7 +249,7 @@ class BagRecorder(EpisodeObserver):
         closed = self.closed
         if closed is None:
             raise RecordError(f'{self.path}: the episode never finished, the bag is incomplete')
-        if closed.problems:
+        if not closed.complete:  # the completeness verdict on the bag (Recorder.close)
             raise RecordError(f'{closed.path} is incomplete: {"; ".join(closed.problems)}')
         if len(self.rows) != len(result.metrics):
             raise RecordError(f'{closed.path} holds {len(self.rows)} metric samples, the '

@@ -3,9 +3,11 @@
 One world, one metrics node, the controllers (K robots per process) and the supervisor, each in
 its own process group in a private ROS domain, all with the one parameter file plus the run's
 overrides, which are checked with the schema before anything starts. The run waits for the
-supervisor, makes sure every node ends, and gives the verdict node by node on stderr. Exit
-status: 0 success, 1 a node failed or had to be stopped, 2 a bad option or parameter, 124
-``--timeout``, 130 / 143 SIGINT / SIGTERM. docs/running.md has the details.
+supervisor, makes sure every node ends, gives the verdict node by node on stderr, then judges
+every episode's bag with the completeness verdict ``analyze`` uses (:mod:`.records`). Exit
+status: 0 success, 1 a node failed or had to be stopped or a bag is incomplete, 2 a bad
+option or parameter, 124 ``--timeout``, 130 / 143 SIGINT / SIGTERM. docs/running.md has the
+details.
 
 Across machines, each host runs a part: ``--role core`` (world, metrics, supervisor) on one,
 ``--role controllers --robots 0-24`` on others, all with the same ``--domain`` and a
@@ -54,6 +56,7 @@ from swarm_supervisor.system.processes import (
     write_ros_env,
 )
 from swarm_supervisor.system.progress import ProgressLine, read_progress
+from swarm_supervisor.system.records import incomplete_records
 
 PROG = 'mona-swarm launch'
 #: Node kind -> (package, executable).
@@ -380,7 +383,11 @@ def launch(options: argparse.Namespace) -> int:
         run.stop()
     failures = run.verdict(outcome)
     if outcome == 'finished':
-        if failures:
+        # Exit 0 only with bags that analyze accepts: judged with its function, on disk.
+        records = incomplete_records(out) if 'supervisor' in run.nodes else []
+        for problem in records:
+            say(f'FAILED record {problem}')
+        if failures or records:
             return exits.FAILED
         say(f'done: {out}')
         return exits.OK

@@ -50,9 +50,9 @@ from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
 from swarm_supervisor.system.progress import ProgressFile
+from swarm_supervisor.system.records import RUN_FILE
 from swarm_world.placement import PlacementError
 
-RUN_FILE = 'run.json'
 #: Wall seconds without a world node before a running episode counts as failed.
 WORLD_GONE = 5.0
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 
@@ -184,6 +184,7 @@ class WorldNode(Node):
         self.total_steps = 0
         self.lockstep = Lockstep(0, 0, self.options.absent_after, self.params.step_ns)
         self.cleaning_events = 0  # /world/cleaning messages of this episode
+        self.poses_ns = -1  # the time of the episode's latest /world/poses (-1: none yet)
         #: Each robot's controller state after its latest answer (0 before its first: every
         #: controller kind starts an episode there, docs/interfaces.md).
         self.states = np.zeros(0, dtype=np.uint8)
@@ -192,7 +193,7 @@ class WorldNode(Node):
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
         self.resend_timer = None  # lockstep, step 0 only
-        self.hold_timer = None  # lockstep: a recorder fell behind
+        self.hold_timer = None  # a recorder lacks the start or (lockstep) fell behind
         self.held_since = None
         self._last_heartbeat = self.wall.now()
         self.deadline_period = 0.0
@@ -231,6 +232,7 @@ class WorldNode(Node):
         self.lockstep = Lockstep(population, self.start_ns, self.options.absent_after,
                                  self.params.step_ns * self.params.control_steps)
         self.cleaning_events = 0
+        self.poses_ns = -1
         self.states = np.zeros(population, dtype=np.uint8)
         self.palette = tuple(state.colour for state in announcement.robot_states())
         while len(self.links) < population:
@@ -315,17 +317,27 @@ class WorldNode(Node):
                       f'and alive?')
 
     def _begin(self) -> None:
+        """Publish the episode's start (t = 0's cue map, sources, states and poses), then
+        step once every recorder has recorded it (:meth:`_held_by_recorders`)."""
         self.state = WorldState.RUNNING
         self.publish_clock()
         self.publish_map()
         self.publish_status()
+        self._publish_poses()
         self.get_logger().info(f'episode {self.episode} running')
         if self.options.mode == 'lockstep':
             self._start_round()
         else:
-            self._publish_readings()
-            self.step_timer = self.create_timer(self.params.step_period, self.on_realtime_tick,
-                                                clock=self.wall)
+            self._start_realtime()
+
+    def _start_realtime(self) -> None:
+        """Realtime: once the recorders hold the start, publish the readings of step 0 and
+        step on the wall clock."""
+        if self._held_by_recorders(self._start_realtime):
+            return
+        self._publish_readings()
+        self.step_timer = self.create_timer(self.params.step_period, self.on_realtime_tick,
+                                            clock=self.wall)
 
     def _finish(self) -> None:
         self._stop_timers()
@@ -407,11 +419,14 @@ class WorldNode(Node):
     # --- stepping -----------------------------------------------------------------------
 
     def _start_round(self) -> None:
-        """Lockstep: publish this step's readings and wait for every present robot."""
+        """Lockstep: publish this step's poses, hold while a recorder needs it, then publish
+        the readings and wait for every present robot."""
         if self.world.steps >= self.total_steps:
             self._finish()
             return
-        if self._held_by_recorders():
+        if self.poses_ns != self.time_ns:  # first, so a recorder held for can take its sample
+            self._publish_poses()
+        if self._held_by_recorders(self._start_round):
             return
         self.lockstep.start_round(self.time_ns)
         # Step 0 may wait as long as connecting may take (new DDS matches can hold the first
@@ -425,14 +440,16 @@ class WorldNode(Node):
             # readings to the robots that have not answered (they repeat their answer).
             self.resend_timer = self.create_timer(RESEND_PERIOD, self._resend, clock=self.wall)
 
-    def _held_by_recorders(self) -> bool:
-        """Lockstep: hold the next round while a recorder is more than ``recorder_lag`` behind
-        (its subscriptions keep a bounded history); fail the episode after
-        ``recorder_timeout``."""
-        lag_ns = round(self.options.recorder_lag * 1e9)
-        if lag_ns == 0 or not self.recorders.names:
+    def _held_by_recorders(self, resume: Callable[[], None]) -> bool:
+        """Hold the next step (``resume`` it later) while a recorder has not recorded the
+        episode's start, which went out on keep-last-1 topics that the next map would
+        overwrite, or, in lockstep, is more than ``recorder_lag`` behind (its subscriptions
+        keep a bounded history); fail the episode after ``recorder_timeout``."""
+        if not self.recorders.names:
             return False
-        behind = self.recorders.behind(self.episode, self.start_ns, self.time_ns - lag_ns)
+        lag_ns = round(self.options.recorder_lag * 1e9)
+        needed = self.start_ns if lag_ns == 0 else max(self.start_ns, self.time_ns - lag_ns)
+        behind = self.recorders.behind(self.episode, self.start_ns, needed)
         if not behind:
             if self.hold_timer is not None:
                 self.destroy_timer(self.hold_timer)
@@ -446,15 +463,19 @@ class WorldNode(Node):
             # The recorder samples only up to a status (it counts the cleaning events): say
             # where the world stands, or a recorder one sample behind would wait for ever.
             self.publish_status()
+            what = ('record the start' if needed == self.start_ns else 'catch up')
             self.get_logger().info(f'step {self.world.steps}: waiting for recorder(s) '
-                                   f'{", ".join(behind)} to catch up',
+                                   f'{", ".join(behind)} to {what}',
                                    throttle_duration_sec=5.0)
-            self.hold_timer = self.create_timer(HOLD_POLL, self._start_round, clock=self.wall)
+            self.hold_timer = self.create_timer(HOLD_POLL, resume, clock=self.wall)
         elif (now - self.held_since).nanoseconds / 1e9 > self.options.recorder_timeout:
-            self.fail(f'episode {self.episode}: the recorder(s) {", ".join(behind)} fell '
-                      f'more than {self.options.recorder_lag:g} s of sim time behind and did '
-                      f'not catch up within {self.options.recorder_timeout:g} s; is the '
-                      f'metrics_node alive?', fatal=False)
+            how = ("did not record the episode's start (t = 0's poses, states, cue map and "
+                   'sources)' if needed == self.start_ns else
+                   f'fell more than {self.options.recorder_lag:g} s of sim time behind and '
+                   'did not catch up')
+            self.fail(f'episode {self.episode}: the recorder(s) {", ".join(behind)} {how} '
+                      f'within {self.options.recorder_timeout:g} s; is the metrics_node '
+                      'alive?', fatal=False)
         else:
             self._heartbeat()
         return True
@@ -531,10 +552,12 @@ class WorldNode(Node):
         the n-th /world/poses of the episode (the states array carries no stamp)."""
         self.states_pub.publish(robot_states(self.states))
         self.poses_pub.publish(self.poses_filler.fill(self.world.poses, self.time_ns))
+        self.poses_ns = self.time_ns
 
     def _publish_readings(self) -> None:
         readings = self.world.sense()
-        self._publish_poses()
+        if self.poses_ns != self.time_ns:  # not yet (the start's went out with it, _begin)
+            self._publish_poses()
         for link, ground, ranges, is_robot in zip(self.links, readings.ground, readings.ranges,
                                                   readings.is_robot):
             link.publish(ground, ranges, is_robot, self.time_ns)
