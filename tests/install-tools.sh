@@ -2,6 +2,7 @@
 # The tools make test needs beyond the venv (make firmware-tools, make browser-tools):
 #   tests/install-tools.sh firmware   the firmware's Debian toolchain and simulator (docs/link.md)
 #   tests/install-tools.sh browser    Debian's chromium and the Foxglove web build (docs/bags.md)
+#   tests/install-tools.sh foxglove   the Foxglove web build alone
 # Quick when present (dpkg-query, and a hash of the app's package.json and lock: 0.1 s).
 # Under CI=true a tool either installs or this exits 1, naming the tool, the command that
 # failed and the tail of its output. Elsewhere (a laptop without root) it only says so and
@@ -15,9 +16,11 @@ case "$what" in
             tests='the firmware tests' ;;
   browser)  packages='chromium fonts-dejavu-core'
             tests='the browser tests' ;;
-  *) echo "usage: $0 firmware|browser" >&2; exit 2 ;;
+  foxglove) packages=
+            tests='the browser tests' ;;
+  *) echo "usage: $0 firmware|browser|foxglove" >&2; exit 2 ;;
 esac
-name="$what-tools"
+name="${what/foxglove/browser}-tools"
 case "${CI:-}" in ''|false|0|no) strict= ;; *) strict=1 ;; esac
 APP=$(cd "$(dirname "$0")" && pwd)/browser/app
 CACHE=${FOXGLOVE_CACHE:-${MONA_SWARM_FOXGLOVE_CACHE:-$HOME/.cache/mona-swarm/foxglove}}
@@ -41,17 +44,17 @@ log=$(mktemp "${TMPDIR:-/tmp}/$name.XXXXXX.log")
 trap 'rm -f "$log"' EXIT
 
 # --- Debian packages -------------------------------------------------------------------------
-if ! command -v dpkg-query >/dev/null; then
-  give_up "no dpkg-query: install the Debian packages $packages by hand"
-fi
+# npm (the Foxglove build's installer) from Debian only where there is none (NodeSource's
+# nodejs package brings its own)
+[ "$what" != firmware ] && ! command -v npm >/dev/null && packages="$packages npm"
 missing=
+if [ -n "${packages// /}" ] && ! command -v dpkg-query >/dev/null; then
+  give_up "no dpkg-query: install the Debian packages ${packages# } by hand"
+fi
 for package in $packages; do
   dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q 'install ok installed' ||
     missing="$missing $package"
 done
-# npm (the Foxglove build's installer) from Debian only where there is none (NodeSource's
-# nodejs package brings its own)
-[ "$what" = browser ] && ! command -v npm >/dev/null && missing="$missing npm"
 missing=${missing# }
 if [ -n "$missing" ]; then
   if [ "$(id -u)" = 0 ]; then sudo=
@@ -67,7 +70,7 @@ if [ -n "$missing" ]; then
       give_up "\`$install\` failed (also after apt-get update)" "$log"
   fi
 fi
-[ "$what" = browser ] || exit 0
+[ "$what" != firmware ] || exit 0
 
 # --- the Foxglove web build, from npm into a cache outside the checkout ---------------------
 # Keyed by the content of package.json and package-lock.json together: a change to either
