@@ -1,16 +1,19 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
-#   make test   set up the venv, lint (ruff), type-check the pure cores (mypy), install the
-#               firmware's Debian tools and the browser tests' tools if missing
-#               (make firmware-tools browser-tools), run the tests
+#   make test   what CI runs (.ci/run, with CI=true): set up the venv, lint (ruff), type-check
+#               the pure cores (mypy), install the firmware's Debian tools and the browser
+#               tests' tools if missing (make firmware-tools browser-tools), run every test on
+#               TEST_JOBS parallel workers (tests/README.md)
+# and one for the inner loop:
+#   make check  lint, type-check and the unit tests (no ROS, no tools), in parallel
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test lint typecheck bench sensitivity clean firmware-tools firmware \
-	browser-tools conformance test-extended
+.PHONY: venv run test check lint typecheck bench sensitivity clean firmware-tools firmware \
+	browser-tools conformance
 
 venv: $(VENV)/.installed
 
@@ -24,13 +27,14 @@ $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 run: venv
 	$(VENV)/bin/mona-swarm study --out $(STUDY_OUT)
 
+# pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
+# or a browser rather than compute (tests/README.md has the measurements).
+TEST_JOBS ?= 4
 test: lint typecheck firmware-tools browser-tools
-	$(PY) -m pytest
+	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
 
-# The extended tier (not in make test or CI): other forms of tests make test runs once
-# (pyproject.toml's 'extended' marker), e.g. a metrics node stalled at every moment
-test-extended: venv firmware-tools
-	$(PY) -m pytest -m extended
+check: lint typecheck
+	$(PY) -m pytest tests/unit -q -n $(TEST_JOBS)
 
 lint: venv
 	$(VENV)/bin/ruff check .
