@@ -13,7 +13,7 @@ the test (the machinery is in tests/harness.py).
   shared CI machine (races that a quiet machine hides show up there).
 - ``embedded_live``, ``node_live``: the lingering live runs of the embedded runner and of the
   node system that the live and the browser tiers look at, once per pytest process
-  (tests/liverun.py; their tests are one ``xdist_group`` each).
+  (tests/liverun.py; the modules using each are one unit of work: tests/suite.py).
 
 The suite's own rules (tests/README.md says how to write a test that keeps them):
 
@@ -23,13 +23,13 @@ The suite's own rules (tests/README.md says how to write a test that keeps them)
 - Parallel by default (``make test`` runs pytest-xdist): every pytest process holds a ROS
   domain of its own for the session (in ``os.environ``), so a node started without
   ``ros_env`` still meets no other test's; ports a test names come from
-  ``harness.free_port()``. Tests that share a module-scoped fixture run on one worker (one
-  ``xdist_group`` per module), and the units that take longest are handed out first.
+  ``harness.free_port()``. A module with a module-scoped fixture, and the modules sharing a
+  session-scoped run, are one unit of work each (one worker), and the units that take
+  longest are handed out first (tests/suite.py).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -37,6 +37,7 @@ import pytest
 
 from swarm_supervisor.system.processes import busy_cores as busy_loops
 
+import suite
 from harness import Processes, private_domain, ros_environment
 
 
@@ -117,18 +118,10 @@ def spin_until(executor) -> Callable[..., None]:
     return spin
 
 
-# --- the suite's rules ----------------------------------------------------------------------
+# --- the suite's rules (tests/suite.py) -------------------------------------------------------
 
 #: The environment a ROS domain is: set for the whole session from this process's own domain.
 DOMAIN_KEYS = ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE')
-#: Unit cost ranks: what takes longest is handed out first (a shared run's group, then a test
-#: marked slow, then anything starting nodes, then the rest).
-SHARED, SLOW, ROS, QUICK = range(4)
-
-
-def in_ci() -> bool:
-    """Whether this is a CI run (CI set, as CI services do, and not to false)."""
-    return os.environ.get('CI', '').strip().lower() not in ('', '0', 'false', 'no')
 
 
 @pytest.fixture(scope='session', autouse=True)
@@ -144,81 +137,25 @@ def session_domain() -> Iterator[int]:
         yield domain
 
 
-def shared_scope(item: pytest.Item) -> bool:
-    """Whether ``item`` uses a module-, class- or package-scoped fixture of its own."""
-    info = getattr(item, '_fixtureinfo', None)
-    if info is None:
-        return False
-    for name in item.fixturenames:
-        definitions = info.name2fixturedefs.get(name) or ()
-        if any(d.scope in ('module', 'class', 'package') for d in definitions):
-            return True
-    return False
-
-
-def rank(item: pytest.Item) -> int:
-    if item.get_closest_marker('xdist_group'):
-        return SHARED
-    if item.get_closest_marker('slow'):
-        return SLOW
-    return ROS if item.get_closest_marker('ros') else QUICK
-
-
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Group each module's tests that share a fixture wider than a test onto one worker, and
-    order the units by cost (a module's tests stay together, in their order)."""
-    for item in items:
-        if not item.get_closest_marker('xdist_group') and shared_scope(item):
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split('::')[0]))
-    module_rank: dict[str, int] = {}
-    for item in items:
-        module = item.nodeid.split('::')[0]
-        module_rank[module] = min(module_rank.get(module, QUICK), rank(item))
-    items.sort(key=lambda item: module_rank[item.nodeid.split('::')[0]])
+    """The units that take longest first (suite.order)."""
+    suite.order(items)
 
 
-def not_run(config: pytest.Config) -> tuple[list, list]:
-    """(skipped reports, deselected items) of the session so far."""
-    reporter = config.pluginmanager.get_plugin('terminalreporter')
-    if reporter is None:
-        return [], []
-    return reporter.stats.get('skipped', []), reporter.stats.get('deselected', [])
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own choice
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """Our units of work (suite.SuiteScheduling), unless ``--dist each`` asks otherwise."""
+    return None if config.getvalue('dist') == 'each' else suite.SuiteScheduling(config, log)
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     """Under CI a test that did not run fails the run (the summary lists them)."""
-    if hasattr(session.config, 'workerinput') or not in_ci():
+    if hasattr(session.config, 'workerinput') or not suite.in_ci():
         return
-    if any(not_run(session.config)) and session.exitstatus == pytest.ExitCode.OK:
+    if any(suite.not_run(session.config)) and session.exitstatus == pytest.ExitCode.OK:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
-def skip_reason(report: pytest.TestReport | pytest.CollectReport) -> str:
-    longrepr = report.longrepr
-    reason = longrepr[2] if isinstance(longrepr, tuple) else str(longrepr)
-    return reason.removeprefix('Skipped: ')
-
-
 def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
-    """The banner of what did not run: each skip's reason (which names the command that
-    installs what was missing), with its count and modules."""
-    skipped, deselected = not_run(config)
-    if not in_ci():
-        deselected = []  # a choice of the one who ran it (-k, -m)
-    if not skipped and not deselected:
-        return
-    reasons: dict[str, list[str]] = {}
-    for report in skipped:
-        reasons.setdefault(skip_reason(report), []).append(report.nodeid.split('::')[0])
-    if deselected:
-        reasons['deselected (-k, -m or a plug-in)'] = [item.nodeid.split('::')[0]
-                                                       for item in deselected]
-    count = sum(len(modules) for modules in reasons.values())
-    terminalreporter.section(f'NOT RUN: {count} tests', sep='=', red=in_ci(),
-                             yellow=not in_ci(), bold=True)
-    for reason, modules in sorted(reasons.items(), key=lambda kv: -len(kv[1])):
-        terminalreporter.write_line(f'{len(modules):4d}  {reason}')
-        terminalreporter.write_line(f'      in {", ".join(sorted(set(modules)))}')
-    terminalreporter.write_line(
-        'CI=true: this run FAILS for them (a test that did not run is not a pass).' if in_ci()
-        else 'Not a CI run, so they are only listed here; under CI=true they fail the run.')
+    """The banner of what did not run (suite.write_banner)."""
+    suite.write_banner(terminalreporter, config)

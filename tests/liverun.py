@@ -3,8 +3,8 @@ a command read as it prints, whether the web app can connect, a client that watc
 start, and the two runs the live tier (tests/live) and the browser tier (tests/browser) share.
 
 The shared runs are session fixtures (tests/conftest.py: ``embedded_live``, ``node_live``), each
-started once per pytest process by its first test; the tests using one are one
-``xdist_group``, so one worker runs them all:
+started once per pytest process by its first test; the modules using one are one unit of
+work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in file order:
 
 - ``embedded_live``: ``mona-swarm run --live --bag --pace 3`` (N = 12, seed 2, 200 s, among
   examples/obstacle_layout.yaml's obstacles): about 67 s of wall time, long enough for a page

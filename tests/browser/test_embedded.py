@@ -20,10 +20,11 @@ import pytest
 from checks import Expected, plots_of, settle
 from conftest import LAYOUT
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
 from shown import expected_at
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group('embedded_live')]
+from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
+
+pytestmark = [pytest.mark.slow]
 #: Between two metric samples (1 s apart) and after the 150 s cue map: nothing on the edge.
 SEEK = 150.5
 #: examples/obstacle_layout.yaml's six pillars (r = 6 cm) alone (the wedge and the wall add).

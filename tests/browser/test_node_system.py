@@ -15,10 +15,11 @@ import pytest
 from checks import Expected, plots_of, settle
 from conftest import LAYOUT
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
 from shown import expected_at
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.xdist_group('node_live')]
+from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
+
+pytestmark = [pytest.mark.slow, pytest.mark.ros]
 SEEK = 90.5  # after the 90 s cue map, between two metric samples
 #: examples/obstacle_layout.yaml's six pillars (r = 6 cm) alone (the wedge and the wall add).
 PILLARS = 6 * np.pi * 0.06 ** 2

@@ -28,7 +28,6 @@ from swarm_world.arena_markers import obstacles_from_markers
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 
-pytestmark = pytest.mark.xdist_group('embedded_live')
 #: The shared run's pace (tests/liverun.py): sim seconds per wall second.
 PACE = 3.0
 

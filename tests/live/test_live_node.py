@@ -24,7 +24,7 @@ from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 from harness import free_port
 from swarmrun import SwarmRun
 
-pytestmark = [pytest.mark.ros, pytest.mark.xdist_group('node_live')]
+pytestmark = [pytest.mark.ros]
 #: examples/obstacle_layout.yaml's obstacles, in name order.
 OBSTACLES = ['ring_0', 'ring_1', 'ring_2', 'ring_3', 'ring_4', 'ring_5', 'wall', 'wedge']
 
