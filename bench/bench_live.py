@@ -83,7 +83,7 @@ def main() -> None:
     config = load_config().replace(episode={'population': args.population,
                                             'duration': args.duration, 'seed': 1})
     run_episode(config.replace(episode={'duration': 5.0}))  # compile the kernels first
-    tests = str(Path(__file__).resolve().parents[1] / 'tests' / 'live')
+    tests = str(Path(__file__).resolve().parents[1] / 'tests')
     plain, live, plain_cpu, live_cpu, own = [], [], [], [], []
     for _ in range(args.repeats):
         cpu = time.process_time()

@@ -11,6 +11,21 @@ the test (the machinery is in tests/harness.py).
   meanwhile and used by no process are removed.
 - ``busy_cores``: every core kept busy by spinning processes for the test's duration, as on a
   shared CI machine (races that a quiet machine hides show up there).
+- ``embedded_live``, ``node_live``: the lingering live runs of the embedded runner and of the
+  node system that the live and the browser tiers look at, once per pytest process
+  (tests/liverun.py; the modules using each are one unit of work: tests/suite.py).
+
+The suite's own rules (tests/README.md says how to write a test that keeps them):
+
+- Never skip silently: under ``CI=true`` a skipped or deselected test fails the run, listing
+  each with its reason; elsewhere the run ends with a banner of what did not run and the
+  command that installs what it lacked.
+- Parallel by default (``make test`` runs pytest-xdist): every pytest process holds a ROS
+  domain of its own for the session (in ``os.environ``), so a node started without
+  ``ros_env`` still meets no other test's; ports a test names come from
+  ``harness.free_port()``. A module with a module-scoped fixture, and the modules sharing a
+  session-scoped run, are one unit of work each (one worker), and the units that take
+  longest are handed out first (tests/suite.py).
 """
 
 from __future__ import annotations
@@ -22,6 +37,7 @@ import pytest
 
 from swarm_supervisor.system.processes import busy_cores as busy_loops
 
+import suite
 from harness import Processes, private_domain, ros_environment
 
 
@@ -52,6 +68,20 @@ def busy_cores() -> Iterator[None]:
     """Every core busy for the duration of the test (bounded, stopped afterwards)."""
     with busy_loops():
         yield
+
+
+@pytest.fixture(scope='session')
+def embedded_live(tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """The embedded runner's live run the live and browser tiers share (tests/liverun.py)."""
+    from liverun import embedded_live_run
+    yield from embedded_live_run(tmp_path_factory)
+
+
+@pytest.fixture(scope='session')
+def node_live(tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """The node system's live run the live and browser tiers share (tests/liverun.py)."""
+    from liverun import node_live_run
+    yield from node_live_run(tmp_path_factory)
 
 
 @pytest.fixture
@@ -86,3 +116,46 @@ def spin_until(executor) -> Callable[..., None]:
             executor.spin_once(timeout_sec=0.05)
 
     return spin
+
+
+# --- the suite's rules (tests/suite.py) -------------------------------------------------------
+
+#: The environment a ROS domain is: set for the whole session from this process's own domain.
+DOMAIN_KEYS = ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE')
+
+
+@pytest.fixture(scope='session', autouse=True)
+def session_domain() -> Iterator[int]:
+    """This pytest process's own ROS domain, in os.environ for the session (``ros_env`` gives
+    a test its own on top)."""
+    with private_domain() as domain, pytest.MonkeyPatch.context() as patch:
+        env = ros_environment(domain)
+        for key in DOMAIN_KEYS:
+            patch.setenv(key, env[key])
+        for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
+            patch.delenv(key, raising=False)
+        yield domain
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The units that take longest first (suite.order)."""
+    suite.order(items)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own choice
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """Our units of work (suite.SuiteScheduling), unless ``--dist each`` asks otherwise."""
+    return None if config.getvalue('dist') == 'each' else suite.SuiteScheduling(config, log)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Under CI a test that did not run fails the run (the summary lists them)."""
+    if hasattr(session.config, 'workerinput') or not suite.in_ci():
+        return
+    if any(suite.not_run(session.config)) and session.exitstatus == pytest.ExitCode.OK:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    """The banner of what did not run (suite.write_banner)."""
+    suite.write_banner(terminalreporter, config)

@@ -1,16 +1,23 @@
 """Process harness for ROS tests and benchmarks: a private domain id, process groups that are
-always stopped, and removal of Fast DDS shared-memory leftovers. The machinery is the one
-scripts/swarm.sh runs (swarm_supervisor.system.processes); tests/conftest.py wraps it in fixtures.
+always stopped, removal of Fast DDS shared-memory leftovers, and ports no parallel test shares.
+The machinery is the one scripts/swarm.sh runs (swarm_supervisor.system.processes);
+tests/conftest.py wraps it in fixtures.
 """
 
 from __future__ import annotations
 
+import fcntl
+import os
 import re
+import socket
 import subprocess
 from pathlib import Path
+from typing import IO
 
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
 from swarm_supervisor.system.processes import (  # noqa: F401
+    LOCK_DIR,
+    PROFILE,
     domain_shm_files,
     group_pids,
     groups_shm,
@@ -40,6 +47,41 @@ def recipes(page: str) -> tuple[dict[str, str], list[str]]:
         elif first.strip() == 'cd my_swarm':
             commands.append(text)
     return files, commands
+#: Ports a test names before a process listens on them: above Linux's ephemeral range
+#: (32768-60999: the kernel's picks for port 0, Fast DDS's sending sockets) and every Fast DDS
+#: port of domains 1-100 (7650-32650), in a slice of PORT_SLICE per pytest-xdist worker.
+PORTS = range(61000, 65536)
+PORT_SLICE = 250
+_held_ports: list[IO] = []
+
+
+def free_port() -> int:
+    """A TCP port of 127.0.0.1, free now and this test process's until it exits.
+
+    Taken from this pytest-xdist worker's slice of :data:`PORTS` and held by a lock file
+    (/tmp/mona-port-<port>.lock, flock), so neither another worker nor another pytest run on
+    the machine is given it; never handed out twice in one process. For a port a test must
+    name in advance (``--live-port``); a server of the test's own process binds port 0.
+    """
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    first = (int(worker[2:]) if worker[2:].isdigit() else 0) * PORT_SLICE
+    for k in range(len(PORTS)):
+        port = PORTS[(first + k) % len(PORTS)]
+        handle = open(LOCK_DIR / f'mona-port-{port}.lock', 'w')
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        with socket.socket() as probe:
+            try:
+                probe.bind(('127.0.0.1', port))
+            except OSError:
+                handle.close()
+                continue
+        _held_ports.append(handle)  # kept open: the lock lasts until this process exits
+        return port
+    raise RuntimeError(f'no free port in {PORTS.start}..{PORTS.stop - 1}')
 
 
 class Processes:

@@ -28,8 +28,7 @@ from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.outputs.bag import TOPICS, BagOptions, record_episode
 from swarm_world.messages.cdr import TYPESTORE
 
-sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
-from swarmrun import CONFIG, SwarmRun  # noqa: E402
+from swarmrun import CONFIG, SwarmRun
 
 pytestmark = pytest.mark.ros
 

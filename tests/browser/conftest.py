@@ -1,6 +1,6 @@
-"""Fixtures of the browser tier: the tools (skipped, naming what is missing, only where they
-cannot be installed), the page server, one headless Debian chromium per module, and the
-folder that keeps a run's screenshots."""
+"""Fixtures of the browser tier: the tools (skipped, naming what is missing, where they
+cannot be installed: a failure of the run under CI=true), the page server and one headless
+Debian chromium per pytest process, and the folder that keeps a module's screenshots."""
 
 from __future__ import annotations
 
@@ -45,13 +45,14 @@ def tools() -> None:
     """Skip the browser tests, naming what is missing, when the tools are not installed."""
     missing = missing_tools()
     if missing:
-        pytest.skip('browser tools not installed: ' + '; '.join(missing))
+        pytest.skip('browser tools not installed: ' + '; '.join(missing) +
+                    ': make browser-tools installs them (as root)')
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture(scope='session')
 def browser(tools: None) -> Iterator[object]:
-    """One headless Debian chromium for the module (WebGL2 in software: SwiftShader), as
-    one browser profile each page of the module opens in."""
+    """One headless Debian chromium (WebGL2 in software: SwiftShader), as one browser
+    profile every page opens in: the build is fetched and compiled once."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:
@@ -59,7 +60,7 @@ def browser(tools: None) -> Iterator[object]:
             executable_path=str(CHROMIUM), headless=True,
             args=['--no-sandbox', '--disable-dev-shm-usage', '--use-angle=swiftshader',
                   '--enable-unsafe-swiftshader'])
-        # One profile for the module's pages: they share the browser's cache of the build.
+        # One profile for every page: they share the browser's cache of the build.
         context = chromium.new_context(viewport={'width': 1600, 'height': 1000})
         try:
             yield context
@@ -78,13 +79,13 @@ def shots(request: pytest.FixtureRequest) -> Path:
     return folder
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture(scope='session')
 def data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The folder served under /data/ (the module's bags)."""
+    """The folder served under /data/ (the bags the tests open)."""
     return tmp_path_factory.mktemp('data')
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture(scope='session')
 def server(tools: None, data_dir: Path) -> Iterator[Server]:
     """The page, the Foxglove build, the module's bags and the layout, over HTTP with ranges."""
     with Server(Site({'app': APP, 'foxglove': CACHE, 'data': data_dir}, LAYOUT,

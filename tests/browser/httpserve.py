@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import mimetypes
 import re
+import sys
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -135,6 +136,14 @@ class Handler(BaseHTTPRequestHandler):
         pass  # quiet: a page load is some 100 requests
 
 
+class QuietServer(ThreadingHTTPServer):
+    """A browser that closes a connection mid-request (a page closed, a reload) is no error."""
+
+    def handle_error(self, request, client_address) -> None:
+        if not isinstance(sys.exc_info()[1], ConnectionError):
+            super().handle_error(request, client_address)
+
+
 class Server:
     """A :class:`Site` served on 127.0.0.1 (a free port) from a daemon thread (a context
     manager)."""
@@ -142,7 +151,7 @@ class Server:
     def __init__(self, site: Site) -> None:
         handler = type('SiteHandler', (Handler,), {'site': site})
         self.site = site
-        self.httpd = ThreadingHTTPServer(('127.0.0.1', 0), handler)
+        self.httpd = QuietServer(('127.0.0.1', 0), handler)
         self.httpd.daemon_threads = True
         self.thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)
 

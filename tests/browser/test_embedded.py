@@ -12,79 +12,70 @@ and the status, no problems. A layout with wrong topic names fails exactly those
 from __future__ import annotations
 
 import json
-import sys
-from collections.abc import Iterator
+import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from checks import Expected, plots_of, settle
 from conftest import LAYOUT
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import LEGACY_SUBPROTOCOL, LiveRun, accepts_legacy_subprotocol
 from shown import expected_at
 
-pytestmark = pytest.mark.slow
-POPULATION, DURATION, SEED = 12, 200.0, 2
-#: Sim seconds per wall second: the episode lasts about 67 s, long enough for the page to
-#: load and look while it runs on a busy 2-core machine.
-PACE = 3.0
+from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
+
+pytestmark = [pytest.mark.slow]
 #: Between two metric samples (1 s apart) and after the 150 s cue map: nothing on the edge.
 SEEK = 150.5
-MONA_SWARM = Path(sys.executable).parent / 'mona-swarm'
+#: examples/obstacle_layout.yaml's six pillars (r = 6 cm) alone (the wedge and the wall add).
+PILLARS = 6 * np.pi * 0.06 ** 2
 
 
-@pytest.fixture(scope='module')
-def run(data_dir: Path) -> Iterator[LiveRun]:
-    """The paced episode with its live view and bag (``data_dir/embedded``), lingering after
-    the episode until the module is done (then Ctrl-C)."""
-    live = LiveRun([str(MONA_SWARM), 'run', '--population', str(POPULATION), '--seed',
-                    str(SEED), '--duration', str(DURATION), '--out',
-                    str(data_dir / 'embedded'), '--bag', '--live', '--port', '0', '--pace',
-                    str(PACE), '--linger', '900'])
-    live.url = live.wait_for('live view on ws://', 120).split('live view on ')[1].split()[0]
-    try:
-        yield live
-    finally:
-        status = live.stop()
-    assert status == 0, live.output[-3000:]
+@pytest.fixture
+def run(embedded_live: SharedRun) -> SharedRun:
+    """The embedded runner's lingering live run (tests/liverun.py): N = 12, seed 2, 200 s at
+    3 sim seconds per wall second, with a bag, among examples/obstacle_layout.yaml's
+    obstacles. The episode lasts about 67 s, long enough for the page to load and look while
+    it runs on a busy 2-core machine."""
+    return embedded_live
 
 
-def episode_ended(run: LiveRun, timeout: float = 300.0) -> None:
-    """Until the episode's outputs are written (then the run lingers)."""
-    run.wait_for('the episode has ended', timeout)
-
-
-@pytest.fixture(scope='module')
-def bag(run: LiveRun, data_dir: Path) -> Path:
+@pytest.fixture
+def bag(run: SharedRun, data_dir: Path) -> Path:
     """The run's bag, served at /data/embedded/bag/bag.mcap, once the episode has ended."""
-    episode_ended(run)
-    return data_dir / 'embedded' / 'bag'
+    run.wait_lingering()
+    served = data_dir / 'embedded' / 'bag'
+    if not served.exists():
+        shutil.copytree(run.out / 'bag', served)
+    return served
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture
 def expected(bag: Path) -> Expected:
-    return expected_at(bag, SEEK, LAYOUT, 'embedded')
+    return Expected(**{**expected_at(bag, SEEK, LAYOUT, 'embedded').__dict__,
+                       'obstacle_area': PILLARS})
 
 
 def test_the_live_view_shows_the_episode_and_keeps_it_after_the_end(browser, server, shots,
                                                                      run):
     # The web build offers only the older subprotocol name; the live view must take it.
     assert accepts_legacy_subprotocol(run.url), LEGACY_SUBPROTOCOL
-    live = Expected(population=POPULATION, seed=SEED, mode='embedded', plots=plots_of(LAYOUT))
+    live = Expected(population=run.population, seed=run.seed, mode='embedded',
+                    plots=plots_of(LAYOUT), obstacle_area=PILLARS)
     app = FoxgloveApp(browser, shots)
     try:
         took = app.open(app_url(server.url, run.url))
         view, found = settle(app, live)
         # Sim time advances: a later status on screen within 30 s.
         later = app.wait_until(lambda: (status_seconds(app.text(STATUS)) or 0) >
-                               (view.status_time or DURATION) and
+                               (view.status_time or run.duration) and
                                status_seconds(app.text(STATUS)), 'a later status', 30)
         print(f'opened in {took:.1f} s; {app.save("embedded_live")}')
         assert found == []
         assert '"state": "running"' in view.status_text  # looked at while it ran
-        assert view.status_time is not None and view.status_time < later <= DURATION
+        assert view.status_time is not None and view.status_time < later <= run.duration
         # The episode ends; the viewer keeps its final state on screen (no reconnect).
-        episode_ended(run)
+        run.wait_lingering()
         app.page.wait_for_timeout(3000)
         final, found = settle(app, live, enough=lambda found: not found and
                               '"state": "finished"' in app.text(STATUS))
@@ -93,7 +84,7 @@ def test_the_live_view_shows_the_episode_and_keeps_it_after_the_end(browser, ser
         app.close()
     assert found == []
     assert '"state": "finished"' in final.status_text
-    assert final.status_time == DURATION
+    assert final.status_time == run.duration
 
 
 def test_the_layout_shows_an_embedded_bag(browser, server, shots, bag, expected):

@@ -8,93 +8,62 @@ states the controllers published (`mona_<i>/state`, assembled by the world into
 from __future__ import annotations
 
 import shutil
-import signal
-import socket
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from checks import Expected, plots_of, settle
-from conftest import LAYOUT, REPO
+from conftest import LAYOUT
 from foxapp import STATUS, FoxgloveApp, app_url, status_seconds
-from liverun import LEGACY_SUBPROTOCOL, accepts_legacy_subprotocol
 from shown import expected_at
 
-sys.path.insert(0, str(Path(__file__).parents[1] / 'system'))
-from swarmrun import SwarmRun  # noqa: E402
+from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
-#: Lockstep runs about as fast as real time here; the page opens as soon as the live node
-#: listens (the world waits for the controllers meanwhile), and 120 sim seconds leave time
-#: to load it and look while the episode runs, even on a busy machine.
-POPULATION, DURATION, SEED = 8, 120.0, 4
 SEEK = 90.5  # after the 90 s cue map, between two metric samples
-OBSTACLES = REPO / 'examples' / 'obstacle_layout.yaml'
 #: examples/obstacle_layout.yaml's six pillars (r = 6 cm) alone (the wedge and the wall add).
 PILLARS = 6 * np.pi * 0.06 ** 2
-DONE = 'the live view keeps serving its final state'  # the launcher, when a run lingers
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(('127.0.0.1', 0))
-        return probe.getsockname()[1]
+@pytest.fixture
+def run(node_live: SharedRun) -> SharedRun:
+    """The node system's lingering live run (tests/liverun.py): lockstep, N = 8, seed 4,
+    120 s, among examples/obstacle_layout.yaml's obstacles. Lockstep runs about as fast as
+    real time here; the page opens as soon as the live node listens (the world waits for the
+    controllers meanwhile), and 120 sim seconds leave time to load it and look while the
+    episode runs, even on a busy machine."""
+    return node_live
 
 
-@pytest.fixture(scope='module')
-def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SwarmRun]:
-    """The lockstep run with its live view, lingering after the episode until the module is
-    done (then Ctrl-C, which must end it with status 0)."""
-    port = free_port()
-    swarm = SwarmRun(tmp_path_factory.mktemp('nodes') / 'run',
-                     ['--population', str(POPULATION), '--duration', str(DURATION), '--seed',
-                      str(SEED), '--mode', 'lockstep', '--config', str(OBSTACLES), '--live',
-                      '--live-port', str(port), '--linger', '900'])
-    swarm.url = f'ws://127.0.0.1:{port}'
-    try:
-        yield swarm
-        if swarm.process.poll() is None:
-            swarm.process.send_signal(signal.SIGINT)
-        status = swarm.wait(120)
-    finally:
-        swarm.stop()
-    assert status == 0, swarm.stderr
-
-
-def run_done(run: SwarmRun, timeout: float = 300.0) -> None:
-    """Until the episode's bag is closed (then the live view lingers)."""
-    run.wait_for(lambda: DONE in run.stderr, 'the end of the run', timeout)
-
-
-@pytest.fixture(scope='module')
-def bag(run: SwarmRun, data_dir: Path) -> Path:
+@pytest.fixture
+def bag(run: SharedRun, data_dir: Path) -> Path:
     """The metrics node's bag, served at /data/nodes/bag/bag.mcap, once the run is done."""
-    run_done(run)
-    shutil.copytree(run.out / 'episode_0' / 'bag', data_dir / 'nodes' / 'bag')
-    return data_dir / 'nodes' / 'bag'
+    run.wait_lingering()
+    served = data_dir / 'nodes' / 'bag'
+    if not served.exists():
+        shutil.copytree(run.out / 'episode_0' / 'bag', served)
+    return served
 
 
 def test_the_live_view_shows_the_node_system_and_keeps_it_after_the_end(browser, server,
                                                                          shots, run):
-    run.wait_for(lambda: 'live view on ws://' in run.log('live'), 'the live view')
+    run.run.wait_for(lambda: 'live view on ws://' in run.run.log('live'), 'the live view')
     assert accepts_legacy_subprotocol(run.url), LEGACY_SUBPROTOCOL  # the web build's only one
-    live = Expected(population=POPULATION, seed=SEED, mode='lockstep', plots=plots_of(LAYOUT),
-                    obstacle_area=PILLARS)
+    live = Expected(population=run.population, seed=run.seed, mode='lockstep',
+                    plots=plots_of(LAYOUT), obstacle_area=PILLARS)
     app = FoxgloveApp(browser, shots)
     try:
         took = app.open(app_url(server.url, run.url))
         view, found = settle(app, live)
         # Sim time advances: a later status on screen within 30 s.
         later = app.wait_until(lambda: (status_seconds(app.text(STATUS)) or 0) >
-                               (view.status_time or DURATION) and
+                               (view.status_time or run.duration) and
                                status_seconds(app.text(STATUS)), 'a later status', 30)
         print(f'opened in {took:.1f} s; {app.save("node_system_live")}')
         assert found == []
         assert '"state": "running"' in view.status_text  # looked at while it ran
-        assert view.status_time is not None and view.status_time < later <= DURATION
-        run_done(run)
+        assert view.status_time is not None and view.status_time < later <= run.duration
+        run.wait_lingering()
         final, found = settle(app, live, enough=lambda found: not found and
                               '"state": "finished"' in app.text(STATUS))
         print(app.save('node_system_live_after_the_end'))
@@ -102,7 +71,7 @@ def test_the_live_view_shows_the_node_system_and_keeps_it_after_the_end(browser,
         app.close()
     assert found == []
     assert '"state": "finished"' in final.status_text
-    assert final.status_time == DURATION
+    assert final.status_time == run.duration
 
 
 def test_the_layout_shows_a_node_system_bag(browser, server, shots, bag):

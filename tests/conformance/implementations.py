@@ -30,16 +30,21 @@ class Implementation:
     map_period: float = 1.0
     #: Needs the firmware's Debian tools (gcc-avr, simavr: make firmware-tools).
     needs_firmware: bool = False
+    #: Its /world/status counts `cleaning_events` (a driver may leave the key out; a command
+    #: line of your own is held to the count only where it gives the key).
+    counts_cleaning_events: bool = False
 
 
 #: name -> implementation; the first is the default.
 IMPLEMENTATIONS: dict[str, Implementation] = {
     # The simulated world node; a short deadline so the absent-robot rules cost little time.
     'world': Implementation('world_node --ros-args --params-file {params} '
-                            '-p lockstep_deadline:=0.5 -p absent_after:=3'),
+                            '-p lockstep_deadline:=0.5 -p absent_after:=3',
+                            counts_cleaning_events=True),
     # The same node stepping on the wall clock, as a driver for real robots does.
     'world-realtime': Implementation('world_node --ros-args --params-file {params} '
-                                     '-p mode:=realtime -p absent_after:=3', mode='realtime'),
+                                     '-p mode:=realtime -p absent_after:=3', mode='realtime',
+                                     counts_cleaning_events=True),
     # The driver for real Monas (docs/driver.md) on emulated ones: the firmware image in
     # simavr per robot, moved by the world's physics, and a simulated tracker. Ranges come
     # back through the robots' 10-bit IR ADC and the driver's calibration table, a link

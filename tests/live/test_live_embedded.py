@@ -1,15 +1,17 @@
 """``mona-swarm run --live``: a real Foxglove WebSocket client watches an embedded episode.
 
-The client (tests/live/foxclient.py, the ``websockets`` package speaking the protocol)
+The client (tests/foxclient.py, the ``websockets`` package speaking the protocol)
 connects, lists the advertised channels, subscribes to all, decodes every message with the
-advertised ``ros2msg`` schemas, and checks what it saw against the episode and its bag.
+advertised ``ros2msg`` schemas, and checks what it saw against the episode and its bag. The
+episode watched is the one the browser tier opens too (``embedded_live``, tests/liverun.py:
+N = 12, seed 2, 200 s at pace 3, with a bag, among examples/obstacle_layout.yaml's obstacles,
+lingering until the session ends, when Ctrl-C must end it with status 0, nothing rewritten).
 """
 
 from __future__ import annotations
 
 import json
 import re
-import signal
 import subprocess
 import sys
 import time
@@ -26,17 +28,16 @@ from swarm_world.messages.markers import obstacles_from_markers
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 
-POPULATION, DURATION, PACE = 6, 60.0, 12.0
-#: The watched episode runs among the obstacles of docs/extending.md's example layout.
-LAYOUT = Path(__file__).parents[2] / 'examples' / 'obstacle_layout.yaml'
+#: The shared run's pace (tests/liverun.py): sim seconds per wall second.
+PACE = 3.0
 
 
 def start_run(out: Path, *extra: str, linger: str = '0',
-              duration: float = DURATION) -> tuple[subprocess.Popen, str]:
+              duration: float = 2.0) -> tuple[subprocess.Popen, str]:
     """``mona-swarm run --live --port 0 --linger 0`` in a subprocess; (process, the URL it
     prints)."""
     process = subprocess.Popen(
-        [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', str(POPULATION),
+        [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '6',
          '--duration', str(duration), '--seed', '2', '--out', str(out), '--live', '--port',
          '0', '--linger', linger, *extra], stderr=subprocess.PIPE, stdout=subprocess.PIPE,
         text=True)
@@ -48,25 +49,11 @@ def start_run(out: Path, *extra: str, linger: str = '0',
     pytest.fail(f'no live view announced; exit {process.returncode}')
 
 
-def enough(capture: Capture) -> bool:
-    return len(capture.messages.get('/world/poses', ())) >= 8 and \
-        len(capture.messages.get('/metrics/coherency', ())) >= 3 and \
-        '/world/cue_map' in capture.messages and '/episode' in capture.messages and \
-        '/world/obstacles' in capture.messages
-
-
-@pytest.fixture(scope='module')
-def watched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Capture, Path, str]:
-    """(what the client saw, the run's folder, its stdout) of a paced episode with a bag."""
-    out = tmp_path_factory.mktemp('live') / 'run'
-    process, url = start_run(out, '--pace', str(PACE), '--bag', '--config', str(LAYOUT))
-    try:
-        seen = connect_when_up(url, seconds=30, done=enough)
-        stdout, stderr = process.communicate(timeout=120)
-    finally:
-        process.kill()
-    assert process.returncode == 0, stderr
-    return seen, out, stdout
+@pytest.fixture
+def watched(embedded_live) -> tuple[Capture, Path, str]:
+    """(what a client saw from the start, the run's folder, its output) of the shared paced
+    episode with a bag, among examples/obstacle_layout.yaml's obstacles (tests/liverun.py)."""
+    return embedded_live.watched, embedded_live.out, embedded_live.run.output
 
 
 def test_the_client_lists_every_channel_as_ros2_cdr(watched):
@@ -79,10 +66,11 @@ def test_the_client_lists_every_channel_as_ros2_cdr(watched):
         assert channel['schemaName'] == LIVE_TOPICS[topic]
 
 
-def test_robots_arena_cue_and_sim_time(watched):
+def test_robots_arena_cue_and_sim_time(watched, embedded_live):
     seen, _, _ = watched
+    population = embedded_live.population
     poses = seen.messages['/world/poses']
-    assert all(len(msg.poses) == POPULATION for _, msg in poses)
+    assert all(len(msg.poses) == population for _, msg in poses)
     stamps = [msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec for _, msg in poses]
     assert stamps == [log_time for log_time, _ in poses]  # log time = sim time
     assert all(b > a for a, b in zip(stamps, stamps[1:]))  # sim time increases
@@ -92,12 +80,12 @@ def test_robots_arena_cue_and_sim_time(watched):
         xy = np.array([(p.position.x, p.position.y) for p in msg.poses])
         assert ((xy > 0) & (xy < 2.85)).all()  # inside the arena
     markers = seen.messages['/world/markers'][-1][1].markers
-    assert [m.id for m in markers] == list(range(POPULATION))
+    assert [m.id for m in markers] == list(range(population))
     colours = {tuple(round(c, 3) for c in state.colour) for state in STATES}
     assert {(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3),
              round(m.color.a, 3)) for m in markers} <= colours
     states = seen.messages['/world/robot_states'][-1][1]
-    assert len(bytes(states.data)) == POPULATION
+    assert len(bytes(states.data)) == population
     image = seen.messages['/world/cue_map'][-1][1]
     assert (image.height, image.width, image.encoding) == (285, 285, 'mono8')
     grid = seen.messages['/world/cue_grid'][-1][1]
@@ -119,14 +107,15 @@ def test_the_obstacles_are_shown_as_the_bag_has_them(watched):
     assert obstacles_from_markers(msg.markers) == read_record(out).obstacles
 
 
-def test_live_equals_the_bag(watched):
+def test_live_equals_the_bag(watched, embedded_live):
     """The announcement and every metric sample seen live are the bag's."""
-    seen, out, stdout = watched
-    assert 'bag' in stdout
+    seen, out, _ = watched
+    embedded_live.wait_lingering()
+    assert 'bag' in embedded_live.run.output
     bag = read_episode_bag(out / 'bag')
     announced = json.loads(seen.messages['/episode'][0][1].data)
     assert announced == bag.announcement
-    assert announced['population'] == POPULATION
+    assert announced['population'] == embedded_live.population
     for name in ('mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency'):
         recorded = dict(zip(*(values.tolist() for values in bag.metric(name))))
         live = [(t, msg.data) for t, msg in seen.messages[f'/metrics/{name}']]
@@ -134,9 +123,9 @@ def test_live_equals_the_bag(watched):
         assert all(recorded[t] == value for t, value in live), name
 
 
-def test_pace_holds_the_episode_to_a_multiple_of_real_time(watched):
-    _, out, _ = watched
-    record = json.loads((out / 'episode.json').read_text())
+def test_pace_holds_the_episode_to_a_multiple_of_real_time(embedded_live):
+    embedded_live.wait_lingering()
+    record = json.loads((embedded_live.out / 'episode.json').read_text())
     assert PACE * 0.8 < record['real_time_factor'] <= PACE * 1.05
 
 
@@ -173,36 +162,29 @@ def final(capture: Capture) -> bool:
         '/world/cue_map' in capture.messages and '/episode' in capture.messages
 
 
-def test_a_viewer_who_connects_after_the_episode_sees_its_end_until_ctrl_c(tmp_path):
+def test_a_viewer_who_connects_after_the_episode_sees_its_end(embedded_live):
     """The run ends, writes every output, and keeps serving the final state: a client that
     connects only then (offering only the protocol's older name) gets the finished status,
-    the last poses, the cue map and the sources; Ctrl-C then exits 0 with nothing lost."""
-    out = tmp_path / 'run'
-    process, url = start_run(out, '--bag', linger='600', duration=8.0)
-    try:
-        wait_for_linger(process)
-        # Every output is complete before the linger starts.
-        record = json.loads((out / 'episode.json').read_text())
-        assert record['duration'] == 8.0 and (out / 'metrics.csv').exists()
-        seen = connect_when_up(url, seconds=20, done=final, subprotocols=[LEGACY_SUBPROTOCOL])
-        assert seen.subprotocol == LEGACY_SUBPROTOCOL
-        assert final(seen), sorted(seen.messages)
-        end_ns = round(8.0 * 1e9)
-        log_time, poses = seen.messages['/world/poses'][-1]
-        assert log_time >= end_ns and len(poses.poses) == POPULATION
-        bag = read_episode_bag(out / 'bag')
-        assert [(p.position.x, p.position.y) for p in poses.poses] == \
-            [tuple(xy) for xy in bag.poses[-1][1][:, :2].tolist()]  # the bag's last poses
-        assert seen.messages['/world/cue_map'][-1][0] == log_time
-        assert process.poll() is None  # still serving
-        process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=30)
-    finally:
-        process.kill()
-    assert process.returncode == 0, stderr
-    assert 'live view closed' in stderr and 'Traceback' not in stderr
-    assert json.loads((out / 'episode.json').read_text()) == record  # nothing rewritten
+    the last poses, the cue map and the sources (Ctrl-C then exits 0 with nothing lost: the
+    shared run's teardown)."""
+    embedded_live.wait_lingering()
+    out = embedded_live.out
+    # Every output is complete before the linger starts.
+    record = json.loads((out / 'episode.json').read_text())
+    assert record['duration'] == embedded_live.duration and (out / 'metrics.csv').exists()
     assert read_episode_bag(out / 'bag').status[-1][1]['state'] == 'finished'
+    seen = connect_when_up(embedded_live.url, seconds=20, done=final,
+                           subprotocols=[LEGACY_SUBPROTOCOL])
+    assert seen.subprotocol == LEGACY_SUBPROTOCOL
+    assert final(seen), sorted(seen.messages)
+    end_ns = round(embedded_live.duration * 1e9)
+    log_time, poses = seen.messages['/world/poses'][-1]
+    assert log_time >= end_ns and len(poses.poses) == embedded_live.population
+    bag = read_episode_bag(out / 'bag')
+    assert [(p.position.x, p.position.y) for p in poses.poses] == \
+        [tuple(xy) for xy in bag.poses[-1][1][:, :2].tolist()]  # the bag's last poses
+    assert seen.messages['/world/cue_map'][-1][0] == log_time
+    assert embedded_live.run.process.poll() is None  # still serving
 
 
 def test_linger_seconds_ends_by_itself(tmp_path):

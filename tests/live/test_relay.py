@@ -1,12 +1,18 @@
 """Both names of the subprotocol: a real client offering only ``foxglove.websocket.v1`` (what
 older Foxglove builds and Lichtblick releases offer) is refused by the foxglove-sdk server
 itself and served through the live view's relay; one offering both gets ``foxglove.sdk.v1``;
-one offering neither is refused with HTTP 400, as the SDK refuses it."""
+one offering neither is refused with HTTP 400, as the SDK refuses it; and a client that stopped
+reading does not hold the live view's stop."""
 
 from __future__ import annotations
 
 import asyncio
+import os
+import signal
+import subprocess
+import sys
 import threading
+import time
 
 import pytest
 import websockets
@@ -88,3 +94,44 @@ def test_a_client_offering_only_the_older_name_sees_the_channels_and_messages(se
     assert [(p.position.x, p.position.y) for p in msg.poses] == [(1.0, 2.0), (2.0, 1.0)]
     assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == log_time > NS
     assert seen.times and seen.times[-1] > NS  # the server's clock comes through too
+
+
+FROZEN_CLIENT = """
+import json, sys, time
+from websockets.sync.client import connect
+with connect(sys.argv[1], subprotocols=['foxglove.sdk.v1'], max_size=None) as ws:
+    while True:
+        document = json.loads(ws.recv())
+        if document['op'] == 'advertise':
+            ws.send(json.dumps({'op': 'subscribe', 'subscriptions': [
+                {'id': k + 1, 'channelId': c['id']} for k, c in enumerate(document['channels'])]}))
+            break
+    print('subscribed', flush=True)
+    time.sleep(600)
+"""
+
+
+def test_a_client_that_stopped_reading_does_not_hold_the_stop(server):
+    """A viewer frozen with messages queued for it (a page the browser no longer runs): the
+    live view still stops within seconds (the launcher sends SIGTERM 6 s after SIGINT), not
+    after websockets' 10 s closing handshake on each side of the relay."""
+    client = subprocess.Popen([sys.executable, '-c', FROZEN_CLIENT, server.url],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert client.stdout.readline().strip() == 'subscribed'
+        deadline = time.monotonic() + 30
+        while not server.wanted(POSES):
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        os.kill(client.pid, signal.SIGSTOP)
+        poses = pose_array_cdr([[1.0, 2.0, 0.5]] * 2000, NS)  # 100 kB: the pipes fill up
+        for k in range(100):
+            server.publish(POSES, NS + k, poses)
+        time.sleep(1.0)
+        started = time.monotonic()
+        server.stop()
+        took = time.monotonic() - started
+    finally:
+        client.kill()
+        client.wait(10)
+    assert took < 4.0, f'{took:.1f} s'

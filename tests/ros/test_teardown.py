@@ -1,4 +1,5 @@
-"""teardown() ends a node process with the status the node meant, also when DDS hangs.
+"""teardown() ends a node process with the status the node meant, also when DDS hangs; and
+deliver() gets a node's last messages to every reader before it leaves.
 
 The hang is simulated where the real one happens (Fast DDS's ``set_listener`` spinning inside
 the last ``destroy_node``, eProsima/Fast-DDS#6513): ``destroy_node`` blocks in native code
@@ -9,6 +10,8 @@ held: no Python-level watchdog could end such a process.
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 import time
 
@@ -75,3 +78,58 @@ def test_a_clean_teardown_returns_and_the_caller_exits_with_its_status(processes
     returncode, _, log = run_probe(processes, mode, status)
     assert returncode == status, log
     assert 'teardown returned' in log and 'Timeout' not in log, log
+
+
+READER = """
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node('last_words_reader')
+node.create_subscription(String, '/last_words', lambda msg: print('got', msg.data, flush=True),
+                         QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+print('listening', flush=True)
+rclpy.spin(node)
+"""
+
+
+def test_deliver_waits_until_a_reader_has_the_last_message(executor, processes):
+    """A node's last messages reach a reader that has not acknowledged them yet (stopped
+    here, as a busy machine may keep it): deliver() waits, bounded, while it cannot answer,
+    and returns once it has them."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    from mona_controller.shutdown import deliver
+
+    reader = processes.spawn([sys.executable, '-c', READER], 'reader')
+    node = rclpy_node(executor)
+    publisher = node.create_publisher(String, '/last_words', QoSProfile(
+        depth=10, reliability=ReliabilityPolicy.RELIABLE))
+    deadline = time.monotonic() + 60
+    while publisher.get_subscription_count() < 1 or 'listening' not in processes.log('reader'):
+        assert time.monotonic() < deadline, processes.log('reader')
+        executor.spin_once(timeout_sec=0.1)
+    assert deliver([node], 5.0)  # nothing sent yet: nothing to wait for
+    os.kill(reader.pid, signal.SIGSTOP)
+    try:
+        publisher.publish(String(data='finished'))
+        started = time.monotonic()
+        assert not deliver([node], 1.5)  # the reader cannot answer: the bound holds
+        assert 1.4 < time.monotonic() - started < 5.0
+    finally:
+        os.kill(reader.pid, signal.SIGCONT)
+    assert deliver([node], 30.0)
+    deadline = time.monotonic() + 30
+    while 'got finished' not in processes.log('reader'):
+        assert time.monotonic() < deadline, processes.log('reader')
+        time.sleep(0.1)
+
+
+def rclpy_node(executor):
+    """A node of the test's own, spun by ``executor``."""
+    import rclpy
+
+    node = rclpy.create_node('last_words_writer', context=executor.context)
+    executor.add_node(node)
+    return node

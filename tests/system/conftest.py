@@ -1,4 +1,4 @@
-"""Fixtures of the system tests (helpers in swarmrun.py)."""
+"""Fixtures of the system tests (helpers in tests/swarmrun.py)."""
 
 from __future__ import annotations
 

@@ -22,8 +22,7 @@ MANY = 60
 STOP_LIMIT = 15.0
 
 
-@pytest.mark.parametrize('after', [3.0, pytest.param(20.0, marks=[pytest.mark.slow,
-                                                                  pytest.mark.extended])],
+@pytest.mark.parametrize('after', [3.0, pytest.param(20.0, marks=pytest.mark.slow)],
                          ids=['spawning', 'discovery'])
 def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
     run = swarm('--population', str(MANY), '--duration', '3000', '--seed', '1')

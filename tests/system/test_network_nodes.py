@@ -25,7 +25,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 POPULATION, DURATION, SEED, HIDDEN = 5, 60.0, 7, 6
 
 
-@pytest.mark.parametrize('fair', [pytest.param(False, marks=pytest.mark.extended), True])
+@pytest.mark.parametrize('fair', [False, True])
 def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path, fair):
     ir_count = load_config(CONFIG).mona.ir_count
     genome = np.random.default_rng(5).normal(0.0, 0.8, genome_size(ir_count, HIDDEN, True))

@@ -14,7 +14,7 @@ import yaml
 from swarm_supervisor import __version__
 
 REPO = Path(__file__).resolve().parents[2]
-TEST_TOOLS = {'pytest', 'hypothesis', 'ruff', 'mypy', 'playwright'}
+TEST_TOOLS = {'pytest', 'pytest-xdist', 'hypothesis', 'ruff', 'mypy', 'playwright'}
 
 
 def pins(lines: list[str]) -> dict[str, str]:

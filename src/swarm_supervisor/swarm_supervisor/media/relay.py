@@ -30,6 +30,10 @@ LEGACY_SUBPROTOCOL = 'foxglove.websocket.v1'
 SUBPROTOCOLS = (SDK_SUBPROTOCOL, LEGACY_SUBPROTOCOL)
 #: Wall seconds to wait for the relay to start or stop.
 TIMEOUT = 10.0
+#: Wall seconds a connection's closing handshake may take before it is dropped: a client that
+#: stopped reading (a frozen page) must not hold a stopping live view past the launcher's 6 s
+#: between SIGINT and SIGTERM (websockets waits 10 s by default, for each side of a relay).
+CLOSE_TIMEOUT = 1.0
 
 
 class Relay:
@@ -50,6 +54,7 @@ class Relay:
         self._loop = asyncio.new_event_loop()
         self._server: Server | None = None
         self._error: BaseException | None = None
+        self._clients: set[asyncio.Task] = set()  # the handlers of the connected clients
         self._ready = threading.Event()
         self._thread = threading.Thread(target=self._run, args=(host, port),
                                         name='foxglove-relay', daemon=True)
@@ -62,7 +67,7 @@ class Relay:
         asyncio.set_event_loop(self._loop)
         async def start() -> Server:
             return await serve(self._handle, host, port, subprotocols=list(SUBPROTOCOLS),
-                               max_size=None, compression=None)
+                               max_size=None, compression=None, close_timeout=CLOSE_TIMEOUT)
         try:
             self._server = self._loop.run_until_complete(start())
             self.port = self._server.sockets[0].getsockname()[1]
@@ -76,16 +81,22 @@ class Relay:
 
     async def _handle(self, client: ServerConnection) -> None:
         """One client: its own connection to the SDK server, frames copied both ways."""
+        self._clients.add(asyncio.current_task())
         try:
             async with connect(self.upstream, subprotocols=[SDK_SUBPROTOCOL], max_size=None,
-                               compression=None, open_timeout=TIMEOUT) as sdk:
+                               compression=None, open_timeout=TIMEOUT,
+                               close_timeout=CLOSE_TIMEOUT) as sdk:
                 copies = [asyncio.create_task(_copy(client, sdk)),
                           asyncio.create_task(_copy(sdk, client))]
-                _, pending = await asyncio.wait(copies, return_when=asyncio.FIRST_COMPLETED)
-                for task in pending:
-                    task.cancel()
+                try:
+                    await asyncio.wait(copies, return_when=asyncio.FIRST_COMPLETED)
+                finally:  # one side closed, or the relay stops: a copy blocked on a client
+                    for task in copies:  # that stopped reading must not outlive it
+                        task.cancel()
         except (OSError, websockets.InvalidHandshake, asyncio.TimeoutError):
             await client.close(1011, 'the live view server is not available')
+        finally:
+            self._clients.discard(asyncio.current_task())
 
     def stop(self) -> None:
         """Close every connection and stop listening (safe to call twice)."""
@@ -93,7 +104,9 @@ class Relay:
             return
         if self._server is not None:
             async def close(server: Server) -> None:
-                server.close()
+                server.close(close_connections=False)  # no new clients
+                for client in list(self._clients):
+                    client.cancel()  # each closes its connections (CLOSE_TIMEOUT at most)
                 await server.wait_closed()
             try:
                 asyncio.run_coroutine_threadsafe(close(self._server), self._loop).result(TIMEOUT)

@@ -41,6 +41,7 @@ from swarm_supervisor.system.preflight import (
     run_overrides,
 )
 from swarm_supervisor.system.processes import (
+    LIVE_READY,
     claim_domain,
     default_profile,
     describe,
@@ -52,6 +53,7 @@ from swarm_supervisor.system.processes import (
     ros_environment,
     start_group,
     stop_groups,
+    wait_for_log,
     wait_gone,
     write_ros_env,
 )
@@ -101,8 +103,8 @@ def controller_groups(population: int, per_process: int,
 
 def node_commands(options: argparse.Namespace, population: int, out: Path,
                   executables: dict[str, str]) -> dict[str, list[str]]:
-    """Node name -> command line, in start order: world, metrics, controllers, supervisor;
-    only the nodes of ``options.role`` (when given)."""
+    """Node name -> command line, in start order: world, metrics, controllers, the live node,
+    supervisor; only the nodes of ``options.role`` (when given)."""
     ros_args = ['--ros-args', '--params-file', str(config_file(options))]
     for override in run_overrides(options):
         ros_args += ['-p', override]
@@ -117,14 +119,14 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                                     getattr(options, 'robots', None)):
         commands[f'controller_{robots}'] = [executables['controller'], '--robots', robots,
                                             *ros_args]
-    commands['supervisor'] = [executables['supervisor'], *ros_args,
-                              '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
-                              '-p', 'recorders:=metrics']
-    if getattr(options, 'live', False):
+    if getattr(options, 'live', False):  # before the supervisor: it sees the whole episode
         linger = getattr(options, 'linger', None)
         commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.live_node',
                             '--ros-args', '-p', f'port:={options.live_port}',
                             '-p', f'linger:={-1.0 if linger is None else float(linger)}']
+    commands['supervisor'] = [executables['supervisor'], *ros_args,
+                              '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
+                              '-p', 'recorders:=metrics']
     kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
     return {name: command for name, command in commands.items()
             if name.partition('_')[0] in kinds}
@@ -372,6 +374,9 @@ def launch(options: argparse.Namespace) -> int:
     outcome = ''
     try:
         for name, command in node_commands(options, population, out, executables).items():
+            if name == 'supervisor' and 'live' in run.nodes:  # no episode before the live view
+                wait_for_log(run.nodes['live'], out / 'logs' / 'live.log', LIVE_READY,
+                             options.start_timeout or 60, run.interrupted)
             if run.stopping:  # a signal while spawning: start no more, stop what started
                 break
             run.start(name, command)

@@ -8,9 +8,12 @@ person can watch (poses, markers and clock at most ``rate`` per wall second, the
 grid ``map_rate``); the announcement, the latest status and the obstacles are repeated once a
 second for a client that connects late. After the supervisor's shutdown announcement it
 keeps serving the run's final state (the latest message of every topic, sent again once a
-second) for ``linger`` wall seconds (-1: until SIGINT/SIGTERM; 0: it stops at once). Exit
-status: 0 after the shutdown announcement and its linger, or SIGINT/SIGTERM; 2 for a bad
-parameter or a port it cannot listen on.
+second) for ``linger`` wall seconds (-1: until SIGINT/SIGTERM; 0: it stops at once). It logs
+``live view following the world`` once the world's per-step topics reach it: the launcher
+starts the supervisor (so the first episode) only then, so the live view misses no step and
+holds the run's final state however late it started on a busy machine. Exit status: 0 after
+the shutdown announcement and its linger, or SIGINT/SIGTERM; 2 for a bad parameter or a port
+it cannot listen on.
 
     python -m swarm_supervisor.system.live_node --ros-args -p port:=8765
 """
@@ -36,6 +39,11 @@ from mona_controller.schema import ParameterError, param, validate
 from mona_controller.shutdown import teardown
 from swarm_metrics.bags.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
+from swarm_supervisor.system.processes import LIVE_READY
+
+#: The world's topics published with every step and kept for no late subscriber: the live
+#: view must be subscribed before step 0 to show the episode and, after it, its final state.
+STEPPED = (qos.POSES, qos.ROBOT_STATES, qos.MARKERS)
 
 
 def message_stamp(topic: str, data: bytes) -> int:
@@ -92,6 +100,7 @@ class LiveNode(Node):
         self.options = declare_section(self, LiveNodeParams)
         self.done = Future()  #: set to the exit status when the node should stop
         forwarded = node_topics()
+        self.topic_subscriptions: dict = {}
         self.server = LiveServer(self.options.port, self.options.host, forwarded)
         period, map_period = 1.0 / self.options.rate, 1.0 / self.options.map_rate
         self.min_interval = {qos.POSES: period, qos.MARKERS: period, qos.CLOCK: period,
@@ -116,10 +125,20 @@ class LiveNode(Node):
             self._subscribe(qos.message_class(msgtype), topic, qos.profile_for(topic), handler)
         self.create_timer(1.0, self._repeat, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'live view on {self.server.url}')
+        self._ready_timer = self.create_timer(0.1, self._check_ready,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _subscribe(self, msg_class: type, topic: str, profile, callback) -> None:
-        self.create_subscription(msg_class, topic, lambda data, t=topic: callback(t, data),
-                                 profile, raw=True)
+        self.topic_subscriptions[topic] = self.create_subscription(
+            msg_class, topic, lambda data, t=topic: callback(t, data), profile, raw=True)
+
+    def _check_ready(self) -> None:
+        """Say so once the world's stepped topics (volatile: nothing is kept for a late
+        subscriber) reach us; the launcher waits for it before an episode can start."""
+        if all(self.topic_subscriptions[topic].get_publisher_count() > 0
+               for topic in STEPPED):
+            self.destroy_timer(self._ready_timer)
+            self.get_logger().info(f'{LIVE_READY} ({", ".join(STEPPED)} matched)')
 
     def _due(self, topic: str) -> bool:
         """Whether a message of ``topic`` goes out now (the frequent ones are thinned)."""

@@ -33,6 +33,10 @@ SHM_PREFIXES = ('fastrtps_', 'fast_datasharing', 'sem.fastrtps_')
 #: Domains 1..100 keep every Fast DDS port below Linux's ephemeral range (32768).
 DOMAINS = range(1, 101)
 LOCK_DIR = Path('/tmp')
+#: What the live node logs once the world's stepped topics reach it (its subscriptions to
+#: them are matched): the launcher starts the supervisor, whose announcement starts an
+#: episode, only then, so the live view gets the whole episode however late it started.
+LIVE_READY = 'live view following the world'
 #: The polite stop: each signal to every group still running at once, then that many seconds'
 #: wait. A node stuck in native code never runs Python's handlers; SIGABRT then makes the fault
 #: handler (PYTHONFAULTHANDLER=1) write every thread's stack to its log before SIGKILL. 10.5 s
@@ -231,6 +235,18 @@ def wait_gone(processes: Sequence[subprocess.Popen], seconds: float,
         if time.monotonic() >= deadline or interrupted():
             return False
         time.sleep(0.2)
+    return True
+
+
+def wait_for_log(process: subprocess.Popen, log: Path, text: str, seconds: float,
+                 interrupted: Callable[[], bool] = lambda: False) -> bool:
+    """Wait until ``log`` (``process``'s output) holds ``text`` (True), or ``process`` ends,
+    ``seconds`` pass or ``interrupted()`` (False)."""
+    deadline = time.monotonic() + seconds
+    while text not in log.read_text(errors='replace'):
+        if process.poll() is not None or time.monotonic() >= deadline or interrupted():
+            return False
+        time.sleep(0.1)
     return True
 
 

@@ -15,12 +15,14 @@ a battery sag. The command itself, which starts the driver node and publishes th
 from __future__ import annotations
 
 import argparse
+import fcntl
 import heapq
 import math
 import random
 import shutil
 import socket
 import subprocess
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -211,12 +213,20 @@ def build_images(robots: int, folder: Path) -> tuple[list[Path], Path]:
             link = work / name
             if not link.exists():
                 link.symlink_to(FIRMWARE / 'mona' / name)
-        subprocess.run(['make', '-s', '-C', str(work), f'ROBOT_ID={robot}', 'mona.elf'],
-                       check=True, capture_output=True, timeout=120)
+        make(work, f'ROBOT_ID={robot}', 'mona.elf')
         images.append(work / 'mona.elf')
-    subprocess.run(['make', '-s', '-C', str(FIRMWARE / 'sim')], check=True,
-                   capture_output=True, timeout=120)
+    make(FIRMWARE / 'sim')
     return images, FIRMWARE / 'sim' / 'monasim'
+
+
+def make(folder: Path, *targets: str) -> None:
+    """``make -s -C folder targets``, one build at a time on this machine: runs started
+    together (parallel tests) build firmware/sim's one monasim, and a half-written one fails
+    to start."""
+    with open(Path(tempfile.gettempdir()) / 'mona-firmware-build.lock', 'w') as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        subprocess.run(['make', '-s', '-C', str(folder), *targets], check=True,
+                       capture_output=True, timeout=120)
 
 
 def load_sections(path: Path) -> tuple[WorldParams, MonaParams, DriverParams]:

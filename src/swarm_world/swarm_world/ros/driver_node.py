@@ -36,7 +36,7 @@ from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError
-from mona_controller.shutdown import teardown
+from mona_controller.shutdown import deliver, teardown
 from swarm_world.driver.fleet import Fleet
 from swarm_world.driver.params import UDP_PREFIX, DriverParams, udp_address
 from swarm_world.driver.tracked import TrackedWorld
@@ -279,6 +279,7 @@ def main(args: Sequence[str] | None = None) -> int:
         node = DriverNode()
         rclpy.spin_until_future_complete(node, node.finished)
         status = node.exit_status
+        deliver([node])  # the final status and state reach every reader, also one that lost them
     except (KeyboardInterrupt, ExternalShutdownException):
         status = 0
     except ParameterError as error:

@@ -53,7 +53,7 @@ from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_plugins, declare_section
 from mona_controller.schema import ParameterError, differences, to_mapping
-from mona_controller.shutdown import teardown
+from mona_controller.shutdown import deliver, teardown
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.ros.world_messages import (
@@ -626,6 +626,7 @@ def main(args: Sequence[str] | None = None) -> int:
         node = WorldNode()
         rclpy.spin_until_future_complete(node, node.finished)
         status = node.exit_status
+        deliver([node])  # the final status and state reach every reader, also one that lost them
     except (KeyboardInterrupt, ExternalShutdownException):
         status = 0
     except ParameterError as error:

@@ -15,6 +15,7 @@ import json
 import struct
 import time
 from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import websockets
@@ -84,8 +85,12 @@ def capture(url: str, *, topics: Iterable[str] | None = None, seconds: float = 5
     """Connect to ``url`` offering ``subprotocols``, subscribe to ``topics`` (default: every
     advertised one) and decode what arrives for ``seconds`` or until ``done(capture)`` holds
     (``decode`` False: keep each payload's size instead)."""
-    return asyncio.run(_capture(url, None if topics is None else set(topics), seconds, done,
-                                decode, list(subprotocols)))
+    watching = _capture(url, None if topics is None else set(topics), seconds, done, decode,
+                        list(subprotocols))
+    # In a thread of its own: the caller's thread may run an event loop already (Playwright's
+    # sync API does while a browser is open), and asyncio runs one loop per thread.
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        return pool.submit(asyncio.run, watching).result()
 
 
 def connect_when_up(url: str, timeout: float = 60.0, **kwargs) -> Capture:
