@@ -39,7 +39,7 @@ def run(data_dir: Path) -> Iterator[LiveRun]:
     the episode until the module is done (then Ctrl-C)."""
     live = LiveRun([str(MONA_SWARM), 'run', '--population', str(POPULATION), '--seed',
                     str(SEED), '--duration', str(DURATION), '--out',
-                    str(data_dir / 'embedded'), '--bag', '--live', '--port', '0', '--pace',
+                    str(data_dir / 'embedded'), '--bag', '--live', '--live-port', '0', '--pace',
                     str(PACE), '--linger', '900'])
     live.url = live.wait_for('live view on ws://', 120).split('live view on ')[1].split()[0]
     try:

@@ -1,5 +1,5 @@
-"""The output guard: a folder holding a record is refused without --overwrite and replaced
-whole with it; empty, absent or record-free folders are taken as they are."""
+"""The output guard: a folder holding a record is refused without --overwrite and emptied
+with it; empty, absent or record-free folders are taken as they are."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def test_overwrite_replaces_the_folder_whole(tmp_path):
     (tmp_path / 'out' / 's1' / 'episode.json').write_text('{}')
     (tmp_path / 'out' / 'notes.txt').write_text('old')
     claim_output(tmp_path / 'out', overwrite=True)
-    assert not (tmp_path / 'out').exists()
+    assert list((tmp_path / 'out').iterdir()) == []  # emptied; the folder stays, locked
 
 
 def test_a_file_is_never_an_output_folder(tmp_path):

@@ -21,12 +21,12 @@ import math
 import os
 import re
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 
-from mona_controller.schema import param, validate
+from mona_controller.schema import ParameterError, param, validate
 
 if TYPE_CHECKING:  # the field is the world's; metrics only read it
     from swarm_world.field import CueField
@@ -325,11 +325,32 @@ def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray
                     mean_cue(cue))
     row = {'t': t}
     for name, metric in METRICS.items():
-        row[name] = float(metric.compute(inputs))
+        row[name] = _number(metric, metric.compute(inputs))
     if len(names) > 1:
         row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
                                   params.source_radius))
     return row
+
+
+class MetricError(ParameterError):
+    """A metric's ``compute`` returned something other than one number."""
+
+
+def _number(metric: Metric, value: Any) -> float:
+    """``value`` as the float of a metrics row.
+
+    Raises:
+        MetricError: naming the metric and what it returned (an array, None, text, ...).
+    """
+    try:
+        if np.ndim(value) == 0:
+            return float(value)
+    except (TypeError, ValueError):
+        pass
+    shape = np.shape(value) if isinstance(value, (np.ndarray, list, tuple)) else None
+    what = f'an array of shape {shape}' if shape is not None else repr(value)[:40]
+    raise MetricError(f'metric {metric.name!r} returned {what}, not one number: its compute '
+                      'must return a float per sample (e.g. float(np.mean(...)))')
 
 
 def source_names(columns: list[str] | tuple[str, ...]) -> list[str]:
@@ -359,15 +380,39 @@ def columns(names: tuple[str, ...]) -> tuple[str, ...]:
     return metric_columns() + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)
 
 
+def import_plugin(module: str, named_by: str) -> Any:
+    """Import a user's module (one that registers metrics, say), or refuse it in one line.
+
+    Args:
+        module: its dotted name.
+        named_by: where it was named, for the message (e.g. the environment variable).
+
+    Raises:
+        ParameterError: it cannot be found, or importing it raised (a syntax error, a name
+            it lacks, ...): naming the module, where it was named, the error and its line.
+    """
+    try:
+        return importlib.import_module(module)
+    except Exception as error:  # the user's code may raise anything on import
+        where = ''  # the deepest line of the user's code (a syntax error names its own)
+        trace = None if isinstance(error, SyntaxError) else error.__traceback__
+        while trace is not None:
+            file = trace.tb_frame.f_code.co_filename
+            if not file.startswith('<frozen') and file not in (__file__, importlib.__file__):
+                where = f' ({file}, line {trace.tb_lineno})'
+            trace = trace.tb_next
+        hint = ('install it, or put its folder on PYTHONPATH' if isinstance(
+            error, ModuleNotFoundError) and error.name == module.split('.')[0] else
+            'fix it, or leave it out')
+        raise ParameterError(f'{named_by} names {module!r}, which cannot be imported: '
+                             f'{type(error).__name__}: {error}{where}; {hint}') from None
+
+
 def _load_plugins() -> None:
     """Import the modules :data:`PLUGINS_VARIABLE` names (each registers its metrics)."""
     for module in filter(None, (m.strip() for m in
                                 os.environ.get(PLUGINS_VARIABLE, '').split(','))):
-        try:
-            importlib.import_module(module)
-        except ImportError as error:
-            raise ImportError(f'{PLUGINS_VARIABLE} names {module!r}, which cannot be imported '
-                              f'({error})') from error
+        import_plugin(module, PLUGINS_VARIABLE)
 
 
 # Last: a plugin imports this module's names, which all exist by now.

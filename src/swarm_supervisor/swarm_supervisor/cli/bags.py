@@ -22,7 +22,7 @@ from swarm_metrics.analysis import recompute
 from swarm_metrics.bag_reader import BagError, McapScan, find_mcap, read_episode_bag
 from swarm_metrics.completeness import Finding
 from swarm_metrics.recover import SUFFIX, recover_bag, with_recovery
-from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.cli.arguments import bounded, deprecated_alias
 from swarm_supervisor.cli.bag_outputs import (
     ANALYSIS_SUFFIX,
     check_outputs,
@@ -88,11 +88,13 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         'replay', help='play a bag back onto its ROS topics',
         description='Publish every message of a bag on its topic, with /clock, timed by the '
-                    'log (sim) times divided by --rate. A bag that fails a completeness check '
+                    'log (sim) times divided by --pace. A bag that fails a completeness check '
                     'is an error (exit status 1) unless --allow-incomplete.')
     parser.add_argument('bag', type=Path, metavar='BAG')
-    parser.add_argument('--rate', type=bounded(float, 0), default=1.0,
-                        help='sim seconds per wall second (default 1; 0: as fast as possible)')
+    parser.add_argument('--pace', type=bounded(float, 0), default=1.0, metavar='X',
+                        help='play at X times real time: X sim seconds per wall second '
+                             '(default 1; 0: as fast as possible)')
+    deprecated_alias(parser, '--rate', '--pace')
     parser.add_argument('--delay', type=bounded(float, 0), default=1.0, metavar='SECONDS',
                         help='wait this long for subscribers to connect before playing '
                              '(default 1)')
@@ -269,7 +271,7 @@ def replay(args: argparse.Namespace) -> int:
     from swarm_supervisor.system.replay import play  # only replay needs ROS
 
     try:
-        count, publishers, span, wall = play(mcap, topics, rate=args.rate, delay=args.delay)
+        count, publishers, span, wall = play(mcap, topics, rate=args.pace, delay=args.delay)
     except BagError as error:
         return _bad_bag('replay', error)
     print(f'replayed {count} messages on {publishers} topics from {mcap}: {span:.3f} '

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
+from swarm_supervisor.engine.inputs import check_inputs
 from swarm_supervisor.outputs.guard import RecordExists
 from swarm_supervisor.system.out_folder import claim_out, default_out
 from swarm_supervisor.system.preflight import (
@@ -33,6 +34,8 @@ from swarm_supervisor.system.preflight import (
     check_fit,
     check_parameters,
     check_participants,
+    check_port,
+    check_profile,
     check_roles,
     forced_domain,
     run_overrides,
@@ -316,7 +319,12 @@ def launch(options: argparse.Namespace) -> int:
             check_fit(config, options.episodes,
                       '--population' if options.population is not None else
                       'episode.population')
+        if 'world' in ROLES[options.role]:  # its cue file, the metrics of its first state
+            check_inputs(config)
         check_participants(options, config.episode.population, domain)
+        if options.live:  # the live node would fail after the whole run
+            check_port(options.live_port, '--live-port')
+        check_profile(os.environ.get('SWARM_FASTDDS_PROFILE'))
         address = local_address(options.peers) if options.peers else None
         if options.peers and address is None:
             raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
@@ -333,7 +341,7 @@ def launch(options: argparse.Namespace) -> int:
     try:
         claim_out(out, getattr(options, 'overwrite', False))
         (out / 'logs').mkdir(parents=True, exist_ok=True)
-    except RecordExists as error:
+    except (RecordExists, ParameterError) as error:  # a record, a writer, a bad place
         say(str(error))
         return exits.USAGE
     except OSError as error:

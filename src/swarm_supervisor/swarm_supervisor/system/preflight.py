@@ -8,13 +8,16 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import socket
 from pathlib import Path
+from xml.etree import ElementTree
 
 import yaml
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, file_relative_overrides, load_config
 from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.system.ros_yaml import check_ros_file, check_ros_override
 from swarm_world.placement import MAX_COVERAGE, PlacementError
 
 
@@ -58,11 +61,16 @@ def run_overrides(options: argparse.Namespace) -> list[str]:
 def check_parameters(config_path: Path, overrides: list[str]) -> SwarmConfig:
     """The run's parameters: the file with the overrides of model parameters (``section.key``)
     applied and validated like the nodes do. Node options (``lockstep_deadline``) pass as is.
+    The file and every override must read the same to a ROS node
+    (:mod:`~swarm_supervisor.system.ros_yaml`).
 
     Raises:
         ParameterError: naming the bad parameter.
     """
     config = load_config(config_path)
+    check_ros_file(config_path)
+    for text in overrides:
+        check_ros_override(text)
     known = config.to_dict()
     sections: dict[str, dict] = {}
     for text in overrides:
@@ -169,6 +177,42 @@ def check_participants(options: argparse.Namespace, population: int,
     raise UsageError(
         f'{robots} robots at {options.per_process} per process are {count} DDS participants on '
         f'this host (about {limit} fit {where}): {hint}')
+
+
+def check_port(port: int, option: str, host: str = '127.0.0.1') -> None:
+    """The live node can listen on ``host:port`` (0: any free port, always).
+
+    Raises:
+        UsageError: the port is taken (another live view, any server), naming it and the fix.
+    """
+    if port == 0:
+        return
+    with socket.socket() as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will
+        try:
+            probe.bind((host, port))
+        except OSError as error:
+            raise UsageError(f'{option} {port}: {host}:{port} is taken ({error.strerror}): '
+                             f'give another {option}, or 0 for any free one') from None
+
+
+def check_profile(path: str | None) -> None:
+    """A Fast DDS profile named by ``SWARM_FASTDDS_PROFILE`` exists and is XML (a node
+    would only warn and run with the defaults).
+
+    Raises:
+        UsageError: naming the variable, the file and what is wrong.
+    """
+    if not path:
+        return
+    try:
+        ElementTree.parse(path)
+    except OSError as error:
+        raise UsageError(f'SWARM_FASTDDS_PROFILE={path}: cannot read it ({error.strerror}): '
+                         'name a Fast DDS XML profile, or unset it') from None
+    except ElementTree.ParseError as error:
+        raise UsageError(f'SWARM_FASTDDS_PROFILE={path} is not XML ({error}): name a Fast '
+                         'DDS XML profile, or unset it') from None
 
 
 def node_run_in(folder: Path) -> Path | None:
