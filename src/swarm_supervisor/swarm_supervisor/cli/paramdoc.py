@@ -6,9 +6,50 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib
 
 from mona_controller.schema import spec_of
-from swarm_supervisor.config import SwarmConfig
+from swarm_supervisor.config import FILE_RELATIVE, SwarmConfig
+
+#: The parameters that name a file.
+FILE_KEYS = {f'{section}.{key}' for section, key in FILE_RELATIVE}
+
+
+#: Text parameters whose values come from a registry: key -> where its names are listed.
+REGISTRIES = {'controller.kind': ('mona_controller.controllers', 'CONTROLLERS')}
+
+
+def _type(default, spec) -> str:
+    """A parameter's type as the page names it."""
+    if spec.keyed:
+        return 'mapping'
+    if isinstance(default, tuple):
+        return f'list of {_type(default[0] if default else 0.0, spec)}s'
+    if spec.choices is not None:
+        return 'choice'
+    return {bool: 'boolean', int: 'integer', float: 'number', str: 'text'}[type(default)]
+
+
+def _allowed(key: str, default, spec) -> str:
+    """What a parameter may be: its choices, its range (without the unit, which has its own
+    column), a registry's names, or what a text or a mapping holds."""
+    if spec.keyed:
+        return 'names -> non-empty lists (see meaning)'
+    if spec.choices is not None:
+        return ', '.join(f'`{choice}`' for choice in spec.choices)
+    element = default[0] if isinstance(default, tuple) and default else default
+    if isinstance(element, bool):
+        return '`true`, `false`'
+    if key in REGISTRIES:
+        module, name = REGISTRIES[key]
+        names = getattr(importlib.import_module(module), name)
+        return ', '.join(f'`{kind}`' for kind in names) + ', or a registered kind'
+    if isinstance(element, str):
+        return 'a path, or empty' if key in FILE_KEYS else 'any text'
+    if spec.low is None and spec.high is None:
+        return 'any number'
+    return spec.describe_range().replace(f' {spec.unit}', '') if spec.unit else \
+        spec.describe_range()
 
 
 def _shown(default, spec) -> str:
@@ -17,6 +58,10 @@ def _shown(default, spec) -> str:
         return '{}' if not default else str(dict(default))
     if isinstance(default, tuple):
         return ', '.join(f'{v:g}' if isinstance(v, float) else str(v) for v in default)
+    if isinstance(default, bool):
+        return str(default).lower()  # as the YAML writes it
+    if default == '':
+        return "''"
     return f'{default:g}' if isinstance(default, float) else str(default)
 
 
@@ -28,20 +73,21 @@ def render() -> str:
              '`ros_ws/config/mona_swarm.yaml` under `/**: ros__parameters:`; the nodes take the',
              'same keys as ROS parameters (dotted, e.g. `controller.alpha`). Ranges are',
              'inclusive; a value outside its range, of the wrong type, or an unknown key stops',
-             'the run at start-up with the key named.', '']
+             'the run at start-up with the key named. A number may be given as a whole number',
+             'where the type is `number`; a list holds items of one type (write `[0.04, 1.0]`,',
+             'not `[0.04, 1]`: ROS refuses a list that mixes integers and floats).', '']
     config = SwarmConfig()
     for section in dataclasses.fields(SwarmConfig):
         instance = getattr(config, section.name)
         lines += [f'## `{section.name}`', '', ' '.join((type(instance).__doc__ or '').split()), '',
-                  '| key | default | unit | allowed | meaning |', '|---|---|---|---|---|']
+                  '| key | type | default | unit | allowed | meaning |',
+                  '|---|---|---|---|---|---|']
         for field in dataclasses.fields(instance):
             spec = spec_of(field)
             default = getattr(instance, field.name)
-            shown = _shown(default, spec)
-            allowed = spec.describe_range().replace(f' {spec.unit}', '') if spec.unit else \
-                spec.describe_range()
-            lines.append(f'| `{section.name}.{field.name}` | {shown} | {spec.unit} | '
-                         f'{allowed} | {spec.doc} |')
+            key = f'{section.name}.{field.name}'
+            lines.append(f'| `{key}` | {_type(default, spec)} | {_shown(default, spec)} | '
+                         f'{spec.unit} | {_allowed(key, default, spec)} | {spec.doc} |')
         lines.append('')
     return '\n'.join(lines)
 
