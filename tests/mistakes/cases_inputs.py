@@ -62,10 +62,11 @@ def launch(*options: str) -> list[str]:
 
 TWICE = parameters('twice', '    episode: {population: 3}\n    controller:\n      speed: 0.08\n'
                             '      alpha: 2.0\n      speed: 0.04\n')
-PLUGINS = {'PYTHONPATH': '{tmp}/plugins'}
+PLUGINS = {'PYTHONPATH': '{tmp}/plugins', 'PYTHONDONTWRITEBYTECODE': '1'}  # no __pycache__
 TYPO = {**PLUGINS, 'MONA_SWARM_METRICS': 'typo_metric'}
 ARRAY = {**PLUGINS, 'MONA_SWARM_METRICS': 'array_metric'}
-NEW = {'unchanged': ('new',)}
+#: Nothing written anywhere in the scratch folder (the row's own files stay as they were).
+NEW = {'unchanged': ('.',)}
 
 CASES = [
     # Files named by parameters: read before the first step, by every runner.
@@ -100,7 +101,8 @@ CASES = [
                 'calibrate:\n  trials: 8\n  trials: 16\n'), **NEW),
     Mistake('evolve-design-key-twice',
             [MONA_SWARM, 'evolve', '{tmp}/evolve.yaml', '--out', '{tmp}/new'], 2,
-            r'evolve\.yaml line 4: evolve\.genomes is given twice \(first on line 2\)',
+            r'evolve\.yaml line 4: evolve\.genomes is given twice in one mapping \(first on '
+            r'line 2\)',
             setup=lambda tmp: (tmp / 'evolve.yaml').write_text(
                 'evolve:\n  genomes: 8\n  seed: 2\n  genomes: 16\n'), **NEW),
     # What a ROS node would read otherwise: refused by the launcher before a node starts.
@@ -141,5 +143,5 @@ CASES = [
             setup=metric_modules, env=ARRAY, timeout=BUILT_WITHIN, **NEW),
     Mistake('analyze-metric-returns-an-array', [MONA_SWARM, 'analyze', '{tmp}/run/bag'], 2,
             r"metric 'spread' returned an array of shape \(3,\)",
-            setup=recorded_with_modules, env=ARRAY, unchanged=('run',)),
+            setup=recorded_with_modules, env=ARRAY, **NEW),
 ]

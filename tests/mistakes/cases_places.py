@@ -16,7 +16,8 @@ from mistake import MONA_SWARM, SWARM_SH, Mistake
 OCCUPIED = [sys.executable, str(Path(__file__).with_name('occupied.py'))]
 EVOLVE = '{repo}/ros_ws/config/designs/evolve.yaml'
 CALIBRATE = '{repo}/ros_ws/config/designs/calibration.yaml'
-NEW = {'unchanged': ('new',)}
+#: Nothing written anywhere in the scratch folder (the row's own files stay as they were).
+NEW = {'unchanged': ('.',)}
 #: A scheduler port nothing listens on (connections are refused at once).
 CLOSED = 'tcp://127.0.0.1:1'
 
@@ -32,33 +33,35 @@ CASES = [
     # Output locations that cannot take the output.
     Mistake('run-out-under-a-file', [MONA_SWARM, 'run', *TINY, '--out', '{tmp}/notes.txt/run'],
             2, r'--out \S*notes\.txt/run lies under \S*notes\.txt, which is a file, not a folder',
-            setup=a_file),
+            setup=a_file, **NEW),
     Mistake('run-out-in-proc', [MONA_SWARM, 'run', *TINY, '--out', '/proc/mona-run'], 2,
-            r'--out /proc/mona-run is on /proc, a proc file system .*choose a folder on a disk'),
+            r'--out /proc/mona-run is on /proc, a proc file system .*choose a folder on a disk',
+            **NEW),
     Mistake('study-out-in-sys', [MONA_SWARM, 'study', '--config', '{tmp}/tiny.yaml', '--out',
                                  '/sys/mona-study'], 2,
             r'--out /sys/mona-study is on /sys, a sysfs file system', setup=design('tiny'),
-            timeout=BUILT_WITHIN),
+            timeout=BUILT_WITHIN, **NEW),
     Mistake('launch-out-in-proc', [SWARM_SH, '--population', '3', '--out', '/proc/mona-ros'], 2,
-            r'--out /proc/mona-ros is on /proc, a proc file system', timeout=BUILT_WITHIN),
+            r'--out /proc/mona-ros is on /proc, a proc file system', timeout=BUILT_WITHIN,
+            **NEW),
     Mistake('analyze-out-under-a-file', [MONA_SWARM, 'analyze', '{tmp}/run/bag', '--out',
                                          '{tmp}/notes.txt/analysis'], 2,
             r'--out \S*notes\.txt/analysis lies under \S*notes\.txt, which is a file',
-            setup=lambda tmp: (tiny_bag(tmp), a_file(tmp)), unchanged=('run',)),
+            setup=lambda tmp: (tiny_bag(tmp), a_file(tmp)), **NEW),
     Mistake('recover-out-in-proc', [MONA_SWARM, 'recover', '{tmp}/run/bag', '--out',
                                     '/proc/mona-recovered'], 2,
-            r'--out /proc/mona-recovered is on /proc', setup=tiny_bag, unchanged=('run',)),
+            r'--out /proc/mona-recovered is on /proc', setup=tiny_bag, **NEW),
     Mistake('animate-out-under-a-file', [MONA_SWARM, 'animate', '{tmp}/run', '--out',
                                          '{tmp}/notes.txt/n3.gif'], 2,
             r'--out \S*notes\.txt/n3\.gif lies under \S*notes\.txt, which is a file',
-            setup=lambda tmp: (tiny_bag(tmp), a_file(tmp)), unchanged=('run',)),
+            setup=lambda tmp: (tiny_bag(tmp), a_file(tmp)), **NEW),
     Mistake('calibrate-out-in-proc', [MONA_SWARM, 'calibrate', CALIBRATE, '--out',
                                       '/proc/mona-calibration'], 2,
-            r'--out /proc/mona-calibration is on /proc', timeout=BUILT_WITHIN),
+            r'--out /proc/mona-calibration is on /proc', timeout=BUILT_WITHIN, **NEW),
     Mistake('evolve-out-under-a-file', [MONA_SWARM, 'evolve', EVOLVE, '--out',
                                         '{tmp}/notes.txt/evolve'], 2,
             r'--out \S*notes\.txt/evolve lies under \S*notes\.txt, which is a file',
-            setup=a_file),
+            setup=a_file, timeout=BUILT_WITHIN, **NEW),
     # Two studies started into one folder at once: one runs, the other is refused; the
     # folder holds one complete study, run once.
     Mistake('study-twice-into-one-folder-at-once',
@@ -103,12 +106,12 @@ CASES = [
     Mistake('replay-ros-domain-id-not-a-number',
             [MONA_SWARM, 'replay', '{tmp}/run/bag', '--pace', '0', '--delay', '0'], 2,
             r'the ROS environment is not usable: ROS_DOMAIN_ID is not an integral number',
-            setup=tiny_bag, env={'ROS_DOMAIN_ID': 'seven'}, unchanged=('run',)),
+            setup=tiny_bag, env={'ROS_DOMAIN_ID': 'seven'}, **NEW),
     Mistake('replay-unknown-middleware',
             [MONA_SWARM, 'replay', '{tmp}/run/bag', '--pace', '0', '--delay', '0'], 2,
             r'RMW_IMPLEMENTATION=rmw_cyclone_cpp: no such ROS middleware is installed',
             setup=tiny_bag, env={'RMW_IMPLEMENTATION': 'rmw_cyclone_cpp'},
-            unchanged=('run',)),
+            **NEW),
     Mistake('launch-fastdds-profile-missing', [SWARM_SH, '--population', '3', '--out',
                                                '{tmp}/new'], 2,
             r'SWARM_FASTDDS_PROFILE=\S*nowhere\.xml: cannot read it',
@@ -117,5 +120,5 @@ CASES = [
     Mistake('replay-old-rate-option',
             [MONA_SWARM, 'replay', '{tmp}/run/bag', '--rate', '0', '--delay', '0'], 0,
             r'warning: --rate is deprecated and will be removed: use --pace(?s:.*)replayed \d+ '
-            r'messages', setup=tiny_bag, unchanged=('run',)),
+            r'messages', setup=tiny_bag, **NEW),
 ]

@@ -11,7 +11,7 @@ from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.engine.inputs import check_inputs
 from swarm_supervisor.outputs.guard import check_place
-from swarm_supervisor.study.cluster import connect
+from swarm_supervisor.study.cluster import check_address, connect
 
 
 def register(subparsers) -> None:
@@ -63,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
     # Every input before the first trial: the folder, the episodes' files and metrics, the
     # scheduler (each trial's study connects to it again).
     check_place(args.out)
+    if args.scheduler:
+        check_address(args.scheduler)
     check_inputs(design.config)
     if args.scheduler:
         connect(args.scheduler, args.scheduler_timeout).close()

@@ -136,8 +136,11 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     """
     started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
     out = Path(out_dir)
-    check_design(config)  # before a worker starts or a byte is written
     outputs.check_place(out)  # a file, a place that cannot take it, another writer
+    if scheduler:  # at once: not an address (whether it answers is asked below)
+        from swarm_supervisor.study.cluster import check_address
+        check_address(scheduler)
+    check_design(config)  # before a worker starts or a byte is written
     if not overwrite:  # read only: a refusal leaves the folder as it was
         specs, folders, pending = plan(config, out, bag=bag or videos)
         claim_study_folder(config, out)
