@@ -15,7 +15,7 @@ from mistake import MONA_SWARM, SWARM_SH, Mistake
 
 #: A refusal that first builds the episode's starting state (the cue, the robots, a metrics
 #: row): a Python start, the engine's compiled kernels loaded, no run.
-BUILT_WITHIN = 60.0
+BUILT_WITHIN = 180.0
 
 
 def parameters(name: str, body: str):

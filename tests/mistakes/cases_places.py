@@ -69,7 +69,7 @@ CASES = [
              '{tmp}/tiny.yaml --out {tmp}/one --jobs 1 && test -f {tmp}/one/report.md && '
              'grep -c \'"started"\' {tmp}/one/study.json'], 0,
             r'(?s)exit status 2\n.*--out \S*one is being written by another process.*'
-            r'wait until it ends.*\n1\n?\Z', setup=design('tiny'), timeout=240),
+            r'wait until it ends.*\n1\n?\Z', setup=design('tiny'), timeout=600),
     # A live view's port that is taken: refused before the run (it would fail at its end).
     Mistake('launch-live-port-taken',
             [*OCCUPIED, 'port', SWARM_SH, '--population', '3', '--duration', '2', '--live',

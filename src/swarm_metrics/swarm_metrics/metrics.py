@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib
 import math
 import os
 import re
@@ -27,6 +26,7 @@ import numba
 import numpy as np
 
 from mona_controller.schema import ParameterError, param, validate
+from swarm_metrics.plugins import import_plugin
 
 if TYPE_CHECKING:  # the field is the world's; metrics only read it
     from swarm_world.field import CueField
@@ -378,34 +378,6 @@ def columns(names: tuple[str, ...]) -> tuple[str, ...]:
     if len(names) < 2:
         return metric_columns()
     return metric_columns() + tuple(c.format(name) for name in names for c in SOURCE_COLUMNS)
-
-
-def import_plugin(module: str, named_by: str) -> Any:
-    """Import a user's module (one that registers metrics, say), or refuse it in one line.
-
-    Args:
-        module: its dotted name.
-        named_by: where it was named, for the message (e.g. the environment variable).
-
-    Raises:
-        ParameterError: it cannot be found, or importing it raised (a syntax error, a name
-            it lacks, ...): naming the module, where it was named, the error and its line.
-    """
-    try:
-        return importlib.import_module(module)
-    except Exception as error:  # the user's code may raise anything on import
-        where = ''  # the deepest line of the user's code (a syntax error names its own)
-        trace = None if isinstance(error, SyntaxError) else error.__traceback__
-        while trace is not None:
-            file = trace.tb_frame.f_code.co_filename
-            if not file.startswith('<frozen') and file not in (__file__, importlib.__file__):
-                where = f' ({file}, line {trace.tb_lineno})'
-            trace = trace.tb_next
-        hint = ('install it, or put its folder on PYTHONPATH' if isinstance(
-            error, ModuleNotFoundError) and error.name == module.split('.')[0] else
-            'fix it, or leave it out')
-        raise ParameterError(f'{named_by} names {module!r}, which cannot be imported: '
-                             f'{type(error).__name__}: {error}{where}; {hint}') from None
 
 
 def _load_plugins() -> None:
