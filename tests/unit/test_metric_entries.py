@@ -26,6 +26,7 @@ import pandas as pd
 import pytest
 
 from swarm_metrics import completeness, metrics
+from swarm_metrics import plugins as metrics_errors
 from swarm_metrics.bag_reader import read_episode_bag
 from swarm_metrics.metrics import METRICS, Metric, register, unregister
 
@@ -130,6 +131,23 @@ def test_a_name_is_registered_once_and_the_papers_stay():
         unregister('coherency')
     unregister('never_registered')  # nothing to do
     assert metrics.metric_names() == PAPER[1:]
+
+
+@pytest.mark.parametrize('compute, message', [
+    (lambda sample: sample.positions[:, 0], r"'odd' returned an array of shape \(7,\), not one"),
+    (lambda sample: None, r"'odd' returned None, not one number"),
+    (lambda sample: 1 / 0, r"'odd' raised ZeroDivisionError: division by zero \(\S*"
+                           r'test_metric_entries\.py, line \d+\): fix its compute'),
+])
+def test_a_metric_that_gives_no_number_is_named(compute, message):
+    register(Metric('odd', '', 'a metric of a user', compute))
+    try:
+        with pytest.raises(metrics_errors.MetricError, match=message):
+            metrics.sample(0.0, np.zeros((4, 4), np.float32), 1.0,
+                           np.random.default_rng(1).uniform(0, 2, (7, 2)), np.zeros(2),
+                           metrics.MetricsParams())
+    finally:
+        unregister('odd')
 
 
 def test_a_plugin_that_cannot_be_imported_is_named(tmp_path: Path):

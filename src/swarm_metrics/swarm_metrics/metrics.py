@@ -20,13 +20,13 @@ import math
 import os
 import re
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
-from mona_controller.schema import ParameterError, param, validate
-from swarm_metrics.plugins import import_plugin
+from mona_controller.schema import param, validate
+from swarm_metrics.plugins import import_plugin, measure
 
 if TYPE_CHECKING:  # the field is the world's; metrics only read it
     from swarm_world.field import CueField
@@ -325,32 +325,11 @@ def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray
                     mean_cue(cue))
     row = {'t': t}
     for name, metric in METRICS.items():
-        row[name] = _number(metric, metric.compute(inputs))
+        row[name] = measure(metric, inputs)
     if len(names) > 1:
         row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
                                   params.source_radius))
     return row
-
-
-class MetricError(ParameterError):
-    """A metric's ``compute`` returned something other than one number."""
-
-
-def _number(metric: Metric, value: Any) -> float:
-    """``value`` as the float of a metrics row.
-
-    Raises:
-        MetricError: naming the metric and what it returned (an array, None, text, ...).
-    """
-    try:
-        if np.ndim(value) == 0:
-            return float(value)
-    except (TypeError, ValueError):
-        pass
-    shape = np.shape(value) if isinstance(value, (np.ndarray, list, tuple)) else None
-    what = f'an array of shape {shape}' if shape is not None else repr(value)[:40]
-    raise MetricError(f'metric {metric.name!r} returned {what}, not one number: its compute '
-                      'must return a float per sample (e.g. float(np.mean(...)))')
 
 
 def source_names(columns: list[str] | tuple[str, ...]) -> list[str]:

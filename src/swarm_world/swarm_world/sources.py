@@ -149,8 +149,9 @@ def load_cue_file(path: str, cells: int) -> np.ndarray:
     file = Path(path)
     key = f'world.cue_file = {path!r}'
     if not file.is_file():
-        raise ParameterError(f'{key}: no such file (a path absolute or relative to the '
-                             'parameter file naming it)')
+        raise ParameterError(f'{key}: ' + ('a folder, not a file' if file.is_dir() else
+                                           'no such file') + ' (a path absolute or relative '
+                             'to the parameter file naming it)')
     try:
         if file.suffix == '.npy':
             values = np.load(file, allow_pickle=False)

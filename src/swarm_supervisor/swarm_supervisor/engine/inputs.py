@@ -19,7 +19,7 @@ def check_inputs(config: SwarmConfig) -> None:
     Raises:
         ParameterError: a file a parameter names is missing or not what it must be (a cue
             map's values outside 0..255, weights of another shape), or a metric returned no
-            number (:class:`swarm_metrics.metrics.MetricError`, naming it).
+            number (:class:`swarm_metrics.plugins.MetricError`, naming it).
         PlacementError: the robots do not fit in the arena.
     """
     Episode(config).metrics()

@@ -20,7 +20,7 @@ from mona_controller.schema import ParameterError
 PSEUDO_FILE_SYSTEMS = frozenset({
     'proc', 'sysfs', 'cgroup', 'cgroup2', 'devpts', 'debugfs', 'tracefs', 'securityfs',
     'configfs', 'pstore', 'bpf', 'mqueue', 'fusectl', 'efivarfs', 'binfmt_misc', 'nsfs',
-    'rpc_pipefs', 'autofs', 'hugetlbfs'})
+    'rpc_pipefs', 'autofs', 'hugetlbfs', 'devtmpfs'})
 MOUNTS = Path('/proc/self/mountinfo')
 
 
@@ -70,6 +70,9 @@ def check_location(path: str | Path, option: str = '--out', *, kind: str = 'fold
         except PermissionError:
             raise OutputError(f'{option} {path}: this user may not look into {place.parent}: '
                               f'choose another {option}') from None
+        except OSError as error:  # a name too long, a loop of links, ...
+            raise OutputError(f'{option} {path}: {error.strerror}: choose another '
+                              f'{option}') from None
         if place != target and not place.is_dir():
             raise OutputError(f'{option} {path} lies under {place}, which is a file, not a '
                               f'folder: choose another {option}')
