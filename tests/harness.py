@@ -17,7 +17,6 @@ from typing import IO
 # Re-exported for the tests: one implementation, shared with scripts/swarm.sh.
 from swarm_supervisor.system.processes import (  # noqa: F401
     LOCK_DIR,
-    PROFILE,
     domain_shm_files,
     group_pids,
     groups_shm,

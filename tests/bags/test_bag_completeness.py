@@ -190,11 +190,11 @@ def test_allow_incomplete_is_for_from_episodes_only(tmp_path, capsys):
 
 @pytest.mark.ros
 def test_replay_refuses_an_incomplete_bag_unless_allowed(bags, ros_env):
-    refused = mona_swarm('replay', bags['not_finished'], '--rate', '0', '--delay', '0',
+    refused = mona_swarm('replay', bags['not_finished'], '--pace', '0', '--delay', '0',
                          env=ros_env)
     assert refused.returncode == 1, refused.stderr
     assert 'fails the finished check' in refused.stderr and 'replayed' not in refused.stdout
-    accepted = mona_swarm('replay', bags['not_finished'], '--rate', '0', '--delay', '0',
+    accepted = mona_swarm('replay', bags['not_finished'], '--pace', '0', '--delay', '0',
                           '--allow-incomplete', env=ros_env)
     assert accepted.returncode == 0, accepted.stderr
     assert 'replayed' in accepted.stdout

@@ -35,7 +35,7 @@ def test_replay_publishes_the_recorded_bytes(processes, tmp_path):
                                      (qos.CLOCK, Clock, qos.CLOCK_QOS)):
             node.create_subscription(kind, topic, received[topic].append, profile, raw=True)
         # 6 s of sim time at 10x, after 3 s for discovery
-        replay = processes.spawn(['mona-swarm', 'replay', str(tmp_path / 'bag'), '--rate',
+        replay = processes.spawn(['mona-swarm', 'replay', str(tmp_path / 'bag'), '--pace',
                                   '10', '--delay', '3'], 'replay')
         deadline = time.monotonic() + 90
         while replay.poll() is None and time.monotonic() < deadline:

@@ -34,11 +34,11 @@ PACE = 3.0
 
 def start_run(out: Path, *extra: str, linger: str = '0',
               duration: float = 2.0) -> tuple[subprocess.Popen, str]:
-    """``mona-swarm run --live --port 0 --linger 0`` in a subprocess; (process, the URL it
+    """``mona-swarm run --live --live-port 0 --linger 0`` in a subprocess; (process, the URL it
     prints)."""
     process = subprocess.Popen(
         [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '6',
-         '--duration', str(duration), '--seed', '2', '--out', str(out), '--live', '--port',
+         '--duration', str(duration), '--seed', '2', '--out', str(out), '--live', '--live-port',
          '0', '--linger', linger, *extra], stderr=subprocess.PIPE, stdout=subprocess.PIPE,
         text=True)
     for line in process.stderr:
@@ -138,7 +138,7 @@ def test_a_taken_port_is_an_error_naming_it(tmp_path):
         port = blocker.stdout.readline().strip()
         result = subprocess.run(
             [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '3',
-             '--duration', '1', '--out', str(tmp_path / 'x'), '--live', '--port', port],
+             '--duration', '1', '--out', str(tmp_path / 'x'), '--live', '--live-port', port],
             capture_output=True, text=True, timeout=120)
     finally:
         blocker.kill()

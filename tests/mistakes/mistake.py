@@ -31,7 +31,7 @@ class Mistake:
     refuses (status 2)."""
 
     name: str
-    command: list[str]
+    command: list[str]  # ``env`` values are filled in alike
     status: int
     pattern: str
     setup: Callable[[Path], None] | None = None
@@ -57,6 +57,6 @@ def folder_digest(folder: Path) -> str:
 def run_mistake(mistake: Mistake, tmp: Path) -> subprocess.CompletedProcess:
     """Run one row's command as a user would, with the venv first on PATH."""
     env = dict(os.environ, PATH=f'{BIN}{os.pathsep}{os.environ.get("PATH", "")}',
-               **mistake.env)
+               **{name: value.format(tmp=tmp, repo=REPO) for name, value in mistake.env.items()})
     return subprocess.run(mistake.argv(tmp), cwd=tmp, env=env, capture_output=True,
                           text=True, timeout=mistake.timeout)

@@ -9,12 +9,15 @@ from pathlib import Path
 
 import pytest
 
+import cases_inputs
 import cases_launch
+import cases_places
 import cases_run
 import cases_study
 from mistake import Mistake, folder_digest, run_mistake
 
-TABLE: list[Mistake] = [*cases_run.CASES, *cases_launch.CASES, *cases_study.CASES]
+TABLE: list[Mistake] = [*cases_run.CASES, *cases_launch.CASES, *cases_study.CASES,
+                        *cases_inputs.CASES, *cases_places.CASES]
 
 
 @pytest.mark.parametrize('mistake', TABLE, ids=[m.name for m in TABLE])

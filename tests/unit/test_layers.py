@@ -27,9 +27,9 @@ SRC = Path(__file__).resolve().parents[2] / 'src'
 #: The packages, bottom first: each may import only those before it.
 PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor')
 #: swarm_supervisor's layers, bottom first; the names of one layer are siblings.
-SUPERVISOR_LAYERS = (('config', 'exits', 'exports'), ('engine',), ('outputs', 'envs'), ('media',),
-                     ('study',), ('analysis', 'system'), ('calibration', 'evolution'),
-                     ('cli',))
+SUPERVISOR_LAYERS = (('yaml_text',), ('config', 'exits', 'exports'), ('engine',), ('outputs',),
+                     ('media',), ('envs', 'study'), ('analysis', 'system'),
+                     ('calibration', 'evolution'), ('cli',))
 #: Packages whose ROS adapters are exactly their ``ros`` sub-packages (a folder rule).
 ROS_FOLDERS = ('swarm_world', 'swarm_metrics')
 #: The other ROS adapters: the modules that may import rclpy and the message packages.

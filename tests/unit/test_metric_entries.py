@@ -26,6 +26,7 @@ import pandas as pd
 import pytest
 
 from swarm_metrics import metrics
+from swarm_metrics import plugins as metrics_errors
 from swarm_metrics.bags import completeness
 from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.metrics import METRICS, Metric, register, unregister
@@ -155,6 +156,23 @@ def test_the_deprecated_variable_still_names_a_metric_module(plugin_dir: Path, t
     assert done.returncode == 2 and not (tmp_path / 'never').exists()
     assert "MONA_SWARM_METRICS: cannot import 'no_such_metrics_module'" in done.stderr
     assert 'Traceback' not in done.stderr
+
+
+@pytest.mark.parametrize('compute, message', [
+    (lambda sample: sample.positions[:, 0], r"'odd' returned an array of shape \(7,\), not one"),
+    (lambda sample: None, r"'odd' returned None, not one number"),
+    (lambda sample: 1 / 0, r"'odd' raised ZeroDivisionError: division by zero \(\S*"
+                           r'test_metric_entries\.py, line \d+\): fix its compute'),
+])
+def test_a_metric_that_gives_no_number_is_named(compute, message):
+    register(Metric('odd', '', 'a metric of a user', compute))
+    try:
+        with pytest.raises(metrics_errors.MetricError, match=message):
+            metrics.sample(0.0, np.zeros((4, 4), np.float32), 1.0,
+                           np.random.default_rng(1).uniform(0, 2, (7, 2)), np.zeros(2),
+                           metrics.MetricsParams())
+    finally:
+        unregister('odd')
 
 
 # --- a metric added in one place reaches every consumer ------------------------------------

@@ -79,6 +79,17 @@ def test_parameter_reference_matches_the_schema():
     assert page.read_text() == render(), (
         'docs/parameters.md is stale: run python -m swarm_supervisor.cli.paramdoc > '
         'docs/parameters.md')
+    rows = [line.split(' | ') for line in render().splitlines() if line.startswith('| `')]
+    rows = [row for row in rows if len(row) == 6]  # not the renamed keys' table
+    by_key = {row[0].strip('| `'): row for row in rows}
+    # Each row names its type; text, booleans and choices show what they take, not a range.
+    assert all(row[1] in ('integer', 'number', 'boolean', 'text', 'choice', 'mapping')
+               or row[1].startswith('list of ') for row in rows)
+    assert not any('inf' in row[4] for row in rows)
+    assert by_key['sensing.ground_transfer'][4] == '`linear`, `webots`, `table`'
+    assert by_key['controller.network.recurrent'][1:5] == ['boolean', 'false', '',
+                                                          '`true`, `false`']
+    assert '`beeclust`' in by_key['controller.kind'][4]
 
 
 def test_the_default_file_is_found_installed_and_its_absence_is_an_error(tmp_path, monkeypatch):

@@ -79,3 +79,18 @@ def test_does_not_fit_says_how_many_fit_and_how_big_an_arena_holds_them(populati
     assert fit * coverage <= MAX_COVERAGE < (fit + 1) * coverage
     assert population * math.pi * RADIUS ** 2 / bigger ** 2 <= MAX_COVERAGE
     assert place_robots(population, bigger, RADIUS, placement_rng(1)).shape == (population, 3)
+
+
+def test_launch_takes_the_speed_in_cm_per_s_like_run_and_an_old_option_name_still_works(
+        capsys):
+    from swarm_supervisor.cli.command import build_parser
+    from swarm_supervisor.cli.launch import build_parser as launch_parser
+    with pytest.raises(SystemExit):
+        launch_parser().parse_args(['--speed', '0.08'])
+    assert '0.08 cm/s looks like m/s: give cm/s, e.g. --speed 8' in capsys.readouterr().err
+    assert launch_parser().parse_args(['--speed', '300']).speed == 300.0  # the schema's to say
+    args = build_parser('run').parse_args(['run', '--port', '0', '--out', 'x'])
+    assert args.live_port == 0
+    assert 'warning: --port is deprecated and will be removed: use --live-port' in \
+        capsys.readouterr().err
+    assert build_parser('replay').parse_args(['replay', 'bag', '--rate', '4']).pace == 4.0

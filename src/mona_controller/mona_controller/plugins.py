@@ -128,6 +128,18 @@ def _failure(error: BaseException, path: str) -> str:
     return f'{type(error).__name__}: {error}{at}'
 
 
+def _module_failure(error: BaseException, module: str) -> str:
+    """A module's import error in one line: its type and message, the deepest line of the
+    user's code (a syntax error names its own), and what to do."""
+    frames = [] if isinstance(error, SyntaxError) else [
+        frame for frame in traceback.extract_tb(error.__traceback__)
+        if not frame.filename.startswith('<frozen') and frame.filename != __file__]
+    at = f' ({frames[-1].filename}, line {frames[-1].lineno})' if frames else ''
+    missing = isinstance(error, ModuleNotFoundError) and error.name == module.split('.')[0]
+    hint = 'install it, or put its folder on PYTHONPATH' if missing else 'fix it, or leave it out'
+    return f'{type(error).__name__}: {error}{at}; {hint}'
+
+
 def load_file(path: str | Path, where: str = KEY) -> Plugin:
     """Import a plug-in file (once per process) and return its record.
 
@@ -167,8 +179,8 @@ def _import(module: str, origin: str, name: str = '') -> Plugin:
     try:
         imported: ModuleType = importlib.import_module(module)
     except Exception as error:  # the plug-in's own code: any error it raises
-        raise PluginError(f'{label}: cannot import {module!r}: {type(error).__name__}: '
-                          f'{error}') from None
+        raise PluginError(f'{label}: cannot import {module!r}: {_module_failure(error, module)}'
+                          ) from None
     file = getattr(imported, '__file__', None) or ''
     record = Plugin(os.path.abspath(file) if file else '', digest(file) if file else '', module,
                     origin, name)

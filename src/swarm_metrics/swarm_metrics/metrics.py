@@ -25,6 +25,7 @@ import numba
 import numpy as np
 
 from mona_controller.schema import param, validate
+from swarm_metrics.plugins import measure
 
 if TYPE_CHECKING:  # the field is the world's; metrics only read it
     from swarm_world.field import CueField
@@ -320,7 +321,7 @@ def sample(t: float, cue: np.ndarray, initial_mean: float, positions: np.ndarray
                     mean_cue(cue))
     row = {'t': t}
     for name, metric in METRICS.items():
-        row[name] = float(metric.compute(inputs))
+        row[name] = measure(metric, inputs)
     if len(names) > 1:
         row.update(source_columns(cue, cell_size, initial_mean, positions, sources, names,
                                   params.source_radius))

@@ -44,6 +44,7 @@ from mona_controller.schema import (
     validate,
 )
 from swarm_metrics.metrics import MetricsParams
+from swarm_supervisor.yaml_text import read_yaml
 from swarm_world.params import WorldParams
 from swarm_world.sensing.params import SensingParams
 from swarm_world.timing import steps_for
@@ -289,6 +290,10 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration',
             f"'ros__parameters', each parameter under its section{_sections_of(keys)}; found "
             f'{", ".join(map(str, keys[:6])) if keys else type(document).__name__} at the '
             f'top. The skeleton:\n{SKELETON}')
+    others = [str(key) for key in document if key != '/**']
+    if others:  # a node's own section: the nodes would read it, the embedded runner not
+        raise ParameterError(f"{source}: {', '.join(others)}: only the '/**' section is read, "
+                             "by both runners: move these parameters under /**: ros__parameters")
     section = document['/**']
     if not isinstance(section, dict) or set(section) != {'ros__parameters'}:
         raise ParameterError(f"{source}: '/**' must hold exactly 'ros__parameters'. The "
@@ -370,15 +375,11 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
     relative path of a :data:`FILE_RELATIVE` parameter is relative to the file.
 
     Raises:
-        ParameterError: the file is missing, not YAML, or holds an unknown or bad parameter.
+        ParameterError: the file is missing, not YAML, gives a key twice in one mapping
+            (:mod:`swarm_supervisor.yaml_text`), or holds an unknown or bad parameter.
     """
     path = default_config_path() if path is None else Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as error:
-        raise ParameterError(f'cannot read {path}: {error.strerror}') from None
-    except yaml.YAMLError as error:
-        raise ParameterError(f'{path} is not valid YAML: {error}') from None
+    document = read_yaml(path)
     for name, value in file_relative_values(document, path.parent).items():
         where, _, key = name.rpartition('.')  # the section holding it (it gives the key)
         mapping_value(document['/**']['ros__parameters'], where)[key] = value

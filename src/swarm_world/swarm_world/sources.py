@@ -18,6 +18,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from mona_controller.schema import ParameterError
+
 PROFILES = ('linear', 'gaussian')
 #: A Gaussian source has sigma = radius / GAUSSIAN_SIGMAS and is cut to 0 beyond its radius.
 GAUSSIAN_SIGMAS = 3.0
@@ -141,24 +143,35 @@ def load_cue_file(path: str, cells: int) -> np.ndarray:
     nearest cell, so it covers the whole arena.
 
     Raises:
-        ValueError: the file is missing, not 2-D, or holds values outside 0..255.
+        ParameterError: the file is missing, unreadable, neither a .npy array of numbers nor
+            an image, not 2-D, or holds values outside 0..255.
     """
     file = Path(path)
+    key = f'world.cue_file = {path!r}'
     if not file.is_file():
-        raise ValueError(f'world.cue_file = {path!r}: no such file')
-    if file.suffix == '.npy':
-        values = np.load(file, allow_pickle=False)
-    else:
-        from PIL import Image  # only for image files; pillow comes with matplotlib
-        with Image.open(file) as image:
-            values = np.asarray(image.convert('L'), dtype=np.float64)[::-1]
-    values = np.asarray(values, dtype=np.float64)
+        raise ParameterError(f'{key}: ' + ('a folder, not a file' if file.is_dir() else
+                                           'no such file') + ' (a path absolute or relative '
+                             'to the parameter file naming it)')
+    try:
+        if file.suffix == '.npy':
+            values = np.load(file, allow_pickle=False)
+        else:
+            from PIL import Image  # only for image files; pillow comes with matplotlib
+            with Image.open(file) as image:
+                values = np.asarray(image.convert('L'), dtype=np.float64)[::-1]
+        values = np.asarray(values, dtype=np.float64)
+    except OSError as error:  # PIL's UnidentifiedImageError is one
+        reason = error.strerror or 'not an image (PNG, JPEG, ...)'
+        raise ParameterError(f'{key}: cannot read it: {reason}; give a .npy array or an '
+                             'image') from None
+    except (ValueError, TypeError) as error:  # np.load of a damaged file, or not numbers
+        raise ParameterError(f'{key}: not a .npy array of numbers ({error})') from None
     if values.ndim != 2 or min(values.shape) == 0:
-        raise ValueError(f'world.cue_file = {path!r}: expected a 2-D map, got shape '
-                         f'{values.shape}')
+        raise ParameterError(f'{key}: expected a 2-D map, got shape {values.shape}')
     if not np.all(np.isfinite(values)) or values.min() < 0 or values.max() > 255:
-        raise ValueError(f'world.cue_file = {path!r}: values must lie in 0..255 (found '
-                         f'{values.min():g}..{values.max():g})')
+        raise ParameterError(f'{key}: values must lie in 0..255 (found '
+                             f'{values.min():g}..{values.max():g}): scale the map to '
+                             'cue units')
     rows = np.minimum((np.arange(cells) + 0.5) * values.shape[0] / cells, values.shape[0] - 1)
     cols = np.minimum((np.arange(cells) + 0.5) * values.shape[1] / cells, values.shape[1] - 1)
     return values[rows.astype(np.int64)][:, cols.astype(np.int64)].astype(np.float32)

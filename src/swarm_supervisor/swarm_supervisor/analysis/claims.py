@@ -26,11 +26,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from mona_controller.schema import ParameterError
 from swarm_metrics.metrics import metric_columns
 from swarm_supervisor.analysis import anova as anova_tables
+from swarm_supervisor.yaml_text import parse_yaml, read_yaml
 
 HOLDS = 'holds'
 FAILS = 'does not hold'
@@ -269,17 +268,13 @@ def check_unique(claims: Sequence[Claim], source: str = 'the claims') -> None:
 
 def load_claims(path: str | Path) -> list[Claim]:
     """Read and validate a claims file (YAML, see ``paper_claims.yaml`` for the format)."""
-    try:
-        document = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ClaimError(f'{path}: cannot read the claims: {error}') from None
-    return parse_claims(document, str(path))
+    return parse_claims(read_yaml(path, ClaimError), str(path))
 
 
 def paper_claims() -> list[Claim]:
     """The paper's claims shipped with swarm_supervisor (``paper_claims.yaml``)."""
     source = resources.files('swarm_supervisor.analysis') / PAPER_CLAIMS
-    return parse_claims(yaml.safe_load(source.read_text()), PAPER_CLAIMS)
+    return parse_claims(parse_yaml(source.read_text(), PAPER_CLAIMS, ClaimError), PAPER_CLAIMS)
 
 
 def all_claims(extra: Iterable[str | Path] = ()) -> list[Claim]:

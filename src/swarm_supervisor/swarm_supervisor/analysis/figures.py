@@ -23,6 +23,7 @@ import pandas as pd  # noqa: E402
 
 from swarm_supervisor.outputs.pictures import draw_cue_map  # noqa: E402
 from swarm_supervisor.study.table import design_factors  # noqa: E402
+from swarm_world.arena import Obstacle  # noqa: E402
 
 FIG3 = 'fig3_cue_maps.png'
 FIG4 = 'fig4_mean_cue.png'
@@ -113,7 +114,8 @@ def finish(fig, path: str | Path) -> None:
 
 def fig3_cue_maps(snapshots: Mapping[str, np.ndarray], path: str | Path, *, population: int,
                   speed: float, seed: int, arena_side: float, body_radius: float,
-                  peak: float, duration: float, substitute: str = '') -> str:
+                  peak: float, duration: float, substitute: str = '',
+                  obstacles: Sequence[Obstacle] = ()) -> str:
     """Cue maps with the robots at the snapshots nearest to t = 0, 1000 and 4000 s.
 
     Args:
@@ -122,6 +124,7 @@ def fig3_cue_maps(snapshots: Mapping[str, np.ndarray], path: str | Path, *, popu
         duration: the episode length; for a shorter episode than the paper's the target times
             are scaled to it (0, 1/4 and all of the episode).
         substitute: a note when the episode is not the paper's N = 30 at 8 cm/s.
+        obstacles: the arena's obstacles, drawn on every map.
 
     Raises:
         FigureSkipped: the snapshots hold no cue map.
@@ -141,7 +144,7 @@ def fig3_cue_maps(snapshots: Mapping[str, np.ndarray], path: str | Path, *, popu
     for ax, k, letter in zip(axes[0], picks, 'abc'):
         level = float(snapshots['cue'][k].mean())
         image = draw_cue_map(ax, snapshots['cue'][k], snapshots['poses'][k], arena_side,
-                             body_radius, peak=peak,
+                             body_radius, peak=peak, obstacles=obstacles,
                              title=f'({letter}) t = {times[k]:g} s, mean cue {level:.1f}')
     fig.colorbar(image, ax=axes[0].tolist(), label='cue intensity (0..255)', shrink=0.9)
     fig.suptitle(f'Fig. 3  Cue map and robots (white discs, red tick = heading): '

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics.bags.completeness import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
@@ -36,6 +37,7 @@ from swarm_supervisor.analysis.report_tables import (
     unfitted_reading,
     write_anovas,
 )
+from swarm_world.params import WorldParams
 
 REPORT_FILE = 'report.md'
 DEPENDENCIES = ('numpy', 'pymunk', 'pandas', 'statsmodels', 'matplotlib')
@@ -162,10 +164,18 @@ def fig3(out: Path, folders: Sequence[Path], records: Sequence[dict[str, Any]]) 
             body_radius=parameters['mona']['body_radius'],
             peak=parameters['world']['cue_peak'],
             duration=float(record.get('duration', parameters['episode']['duration'])),
-            substitute='; '.join(notes))
+            substitute='; '.join(notes), obstacles=_obstacles(parameters))
     except figures.FigureSkipped as reason:
         return Figure(title, None, f'skipped: {reason} ({folder.name})')
     return Figure(title, figures.FIG3, f'episode {folder.name}' + (f'; {note}' if note else ''))
+
+
+def _obstacles(parameters: Mapping[str, Any]) -> tuple:
+    """The arena's obstacles from an episode's recorded parameters (none if unreadable)."""
+    try:
+        return from_mapping(WorldParams, parameters.get('world', {}), 'world.').arena().obstacles
+    except (ParameterError, TypeError, AttributeError):
+        return ()
 
 
 def compared_section(compared: Sequence[tuple[dict[str, Any],

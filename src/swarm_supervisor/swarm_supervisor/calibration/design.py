@@ -36,11 +36,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from mona_controller.keys import leaf
 from mona_controller.schema import ParameterError, from_mapping, to_mapping
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
+from swarm_supervisor.yaml_text import parse_yaml
 
 #: The keys of the ``calibrate`` mapping.
 KEYS = ('config', 'seed', 'trials', 'batch', 'startup', 'screen', 'confirm', 'objective',
@@ -193,11 +192,9 @@ def load_design(path: str | Path) -> CalibrationDesign:
     path = Path(path)
     try:
         text = path.read_text()
-        document = yaml.safe_load(text)
     except OSError as error:
         raise CalibrationError(f'cannot read {path}: {error.strerror}') from None
-    except yaml.YAMLError as error:
-        raise CalibrationError(f'{path} is not valid YAML: {error}') from None
+    document = parse_yaml(text, str(path), CalibrationError)
     if not isinstance(document, dict) or set(document) != {'calibrate'}:
         raise CalibrationError(f'{path}: expected one mapping, calibrate: (see '
                                'ros_ws/config/designs/calibration.yaml)')

@@ -25,6 +25,7 @@ from typing import Any
 from swarm_supervisor.analysis.claims import Claim
 from swarm_supervisor.calibration.design import CalibrationDesign, CalibrationError, Range
 from swarm_supervisor.calibration.objective import Score, score
+from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study import plan, run_tasks, tidy_table, write_table
 from swarm_supervisor.study.table import TABLE_FILE
 
@@ -85,7 +86,7 @@ def open_search(design: CalibrationDesign, out: Path):
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    out.mkdir(parents=True, exist_ok=True)
+    hold(out)  # created, and locked while the search runs
     marker = out / DIGEST_FILE
     if marker.exists() and marker.read_text().strip() != design.digest:
         raise CalibrationError(f'{out} holds the search of another design (or of another '

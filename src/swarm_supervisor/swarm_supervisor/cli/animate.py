@@ -12,6 +12,7 @@ from tqdm import tqdm
 from swarm_metrics.bags.reader import BagError
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.media.video import AnimateError, animate
+from swarm_supervisor.outputs.location import OutputError, check_location
 
 
 def register(subparsers) -> None:
@@ -70,4 +71,8 @@ def _refused_output(out: Path, *, overwrite: bool) -> str | None:
         return f"--out {out} is a folder: give the video's file name (.mp4 or .gif)"
     if out.exists() and not overwrite:
         return f'--out {out} exists: choose another --out, or pass --overwrite to replace it'
+    try:
+        check_location(out, kind='file')  # under a file, /proc, read-only, not writable
+    except OutputError as error:
+        return str(error)
     return None

@@ -1,9 +1,11 @@
-"""Argument types for the ``mona-swarm`` subcommands: numbers with a range and a clear message."""
+"""Argument types for the ``mona-swarm`` subcommands (numbers with a range and a clear message),
+and old option names kept as deprecated aliases (one name per concept across commands)."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 
 
@@ -37,7 +39,17 @@ _speed_range = bounded(float, 0, 100, 'cm/s')
 def speed_cm_s(text: str) -> float:
     """An argparse ``type`` for a CLI ``--speed``: cm/s in [0.5, 100] (every command's
     --speed is in cm/s; the YAML's controller.speed is in m/s)."""
-    value = _speed_range(text)
+    return _not_m_per_s(_speed_range(text))
+
+
+def speed_cm_s_unbounded(text: str) -> float:
+    """:func:`speed_cm_s` without its top: a larger speed is left to the parameter schema,
+    which names the key and the range (``launch``, whose -p overrides it checks alike)."""
+    return _not_m_per_s(bounded(float, 0, unit='cm/s')(text))
+
+
+def _not_m_per_s(value: float) -> float:
+    """Refuse a CLI speed below :data:`MIN_CLI_SPEED` cm/s: m/s typed by habit, or 0."""
     if value < MIN_CLI_SPEED:
         raise argparse.ArgumentTypeError(
             f'{value:g} cm/s looks like m/s: give cm/s, e.g. --speed {value * 100:g} '
@@ -47,4 +59,26 @@ def speed_cm_s(text: str) -> float:
     return value
 
 
-speed_cm_s.__name__ = 'float'  # argparse names the type in its messages
+speed_cm_s.__name__ = speed_cm_s_unbounded.__name__ = 'float'  # argparse names the type
+
+
+class _Deprecated(argparse.Action):
+    """An old option name that still works: it sets the new option's value and says, once
+    per use on stderr, which name to use instead."""
+
+    def __init__(self, option_strings, dest, new: str, **kwargs) -> None:
+        super().__init__(option_strings, dest, **kwargs)
+        self.new = new
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        print(f'{parser.prog}: warning: {option_string} is deprecated and will be removed: '
+              f'use {self.new}', file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: str) -> None:
+    """Accept ``old`` as a deprecated spelling of the option ``new`` (added already): the same
+    value, type and checks, hidden from --help, with a warning when used."""
+    action = next(a for a in parser._actions if new in a.option_strings)
+    parser.add_argument(old, dest=action.dest, type=action.type, metavar=action.metavar,
+                        action=_Deprecated, new=new, help=argparse.SUPPRESS)

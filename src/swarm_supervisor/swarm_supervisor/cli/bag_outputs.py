@@ -16,7 +16,7 @@ from pathlib import Path
 
 from swarm_metrics.bags.reader import BagError
 from swarm_metrics.bags.recover import SUFFIX
-from swarm_supervisor.outputs.guard import RecordExists, claim_output
+from swarm_supervisor.outputs.guard import RecordExists, check_output, claim_output
 
 ANALYSIS_SUFFIX = '.analysis'  #: ``<bag>.analysis``: the default output folder of a bag
 BAG_NAMES = ('bag', 'bag' + SUFFIX)  # the metrics node's bag folder (and its recovered copy)
@@ -83,8 +83,8 @@ def check_outputs(bags: Sequence[Path], outs: Sequence[Path], *, overwrite: bool
         if out.exists() and not out.is_dir():
             raise RecordExists(f'{option} {out} is a file, not a folder: choose another '
                                '--out')
-        if not overwrite:
-            claim_output(out, overwrite=False)  # raises if it holds a record
+        # a record there without overwrite, a writer there, a path that cannot take it
+        check_output(out, overwrite=overwrite, option=option)
 
 
 def claim(out: Path, *, overwrite: bool) -> Path:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib.util
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -22,8 +24,8 @@ from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics.bags import completeness
 from swarm_metrics.bags.completeness import Finding
 from swarm_metrics.bags.reader import BagError, EpisodeBag, McapScan, find_mcap, read_episode_bag
-from swarm_metrics.bags.recover import SUFFIX, recover_bag, with_recovery
-from swarm_supervisor.cli.arguments import bounded
+from swarm_metrics.bags.recover import SUFFIX, default_target, recover_bag, with_recovery
+from swarm_supervisor.cli.arguments import bounded, deprecated_alias
 from swarm_supervisor.cli.bag_outputs import (
     ANALYSIS_SUFFIX,
     check_outputs,
@@ -34,6 +36,7 @@ from swarm_supervisor.cli.bag_outputs import (
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import EpisodeResult
 from swarm_supervisor.outputs.episode_folder import write_episode
+from swarm_supervisor.outputs.location import check_location
 
 INCOMPLETE, BAD_BAG = 1, 2  # exit statuses
 #: episode.json fields of the embedded runner that a bag cannot give.
@@ -89,11 +92,13 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         'replay', help='play a bag back onto its ROS topics',
         description='Publish every message of a bag on its topic, with /clock, timed by the '
-                    'log (sim) times divided by --rate. A bag that fails a completeness check '
+                    'log (sim) times divided by --pace. A bag that fails a completeness check '
                     'is an error (exit status 1) unless --allow-incomplete.')
     parser.add_argument('bag', type=Path, metavar='BAG')
-    parser.add_argument('--rate', type=bounded(float, 0), default=1.0,
-                        help='sim seconds per wall second (default 1; 0: as fast as possible)')
+    parser.add_argument('--pace', type=bounded(float, 0), default=1.0, metavar='X',
+                        help='play at X times real time: X sim seconds per wall second '
+                             '(default 1; 0: as fast as possible)')
+    deprecated_alias(parser, '--rate', '--pace')
     parser.add_argument('--delay', type=bounded(float, 0), default=1.0, metavar='SECONDS',
                         help='wait this long for subscribers to connect before playing '
                              '(default 1)')
@@ -241,6 +246,9 @@ def recover(args: argparse.Namespace) -> int:
         lost (a damaged or cut-off chunk, a message of an unknown type), 2 when nothing
         could be recovered.
     """
+    if args.out is not None or Path(args.bag).exists():  # a missing bag is said below
+        target = args.out or default_target(Path(args.bag))
+        check_location(target, '--out' if args.out is not None else '--out (default)')
     try:
         report = recover_bag(args.bag, args.out)
     except BagError as error:
@@ -259,6 +267,19 @@ def checked_mcap(path: Path) -> tuple[Path, dict[str, str]]:
     return scan.path, {topic.topic: topic.msgtype for topic in scan.topics.values()}
 
 
+def check_rmw() -> None:
+    """``RMW_IMPLEMENTATION``, if set, names an installed ROS middleware (each comes with a
+    Python package of its name).
+
+    Raises:
+        ParameterError: naming the variable and what is installed.
+    """
+    name = os.environ.get('RMW_IMPLEMENTATION', '')
+    if name and (not name.isidentifier() or importlib.util.find_spec(name) is None):
+        raise ParameterError(f'RMW_IMPLEMENTATION={name}: no such ROS middleware is installed '
+                             '(rmw_fastrtps_cpp is): unset it')
+
+
 def replay(args: argparse.Namespace) -> int:
     """Publish the bag's messages on their topics, timed by their log times.
 
@@ -266,6 +287,10 @@ def replay(args: argparse.Namespace) -> int:
         0 once played; 2 for an unreadable bag; 1 for one that fails a completeness check
         (unless ``--allow-incomplete``).
     """
+    check_rmw()  # before rclpy is imported: rcl ends the process over an unknown one
+    from swarm_supervisor.system.replay import check_ros_environment, play  # needs ROS
+
+    check_ros_environment()
     try:
         (mcap, topics), note = with_recovery(args.bag, checked_mcap)
         findings = completeness.check_bag(read_episode_bag(mcap))[1]
@@ -280,10 +305,8 @@ def replay(args: argparse.Namespace) -> int:
         print(f'warning: {error}', file=sys.stderr)
     elif note:
         print(f'note: {note}', file=sys.stderr)
-    from swarm_supervisor.system.replay import play  # only replay needs ROS
-
     try:
-        count, publishers, span, wall = play(mcap, topics, rate=args.rate, delay=args.delay)
+        count, publishers, span, wall = play(mcap, topics, rate=args.pace, delay=args.delay)
     except BagError as error:
         return _bad_bag('replay', error)
     print(f'replayed {count} messages on {publishers} topics from {mcap}: {span:.3f} '

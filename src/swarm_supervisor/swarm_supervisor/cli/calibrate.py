@@ -9,6 +9,9 @@ from pathlib import Path
 
 from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.engine.inputs import check_inputs
+from swarm_supervisor.outputs.guard import check_place
+from swarm_supervisor.study.cluster import check_address, connect
 
 
 def register(subparsers) -> None:
@@ -57,6 +60,14 @@ def run(args: argparse.Namespace) -> int:
         print('mona-swarm calibrate: error: --jobs and --scheduler exclude each other',
               file=sys.stderr)
         return exits.USAGE
+    # Every input before the first trial: the folder, the episodes' files and metrics, the
+    # scheduler (each trial's study connects to it again).
+    check_place(args.out)
+    if args.scheduler:
+        check_address(args.scheduler)
+    check_inputs(design.config)
+    if args.scheduler:
+        connect(args.scheduler, args.scheduler_timeout).close()
     claims = paper_claims()
     options = {'jobs': args.jobs, 'scheduler': args.scheduler,
                'scheduler_timeout': args.scheduler_timeout}

@@ -64,13 +64,16 @@ def main(argv: list[str] | None = None) -> int:
     # user of a command by default): once per key.
     warnings.simplefilter('default', DeprecatedKeyWarning)
     warnings.showwarning = _show
-    parser = build_parser(argv[0] if argv else None)
-    args = parser.parse_args(argv)
+    command = argv[0] if argv else None
     try:
+        # Building the parser imports the command's modules, and with them the plug-ins
+        # they load: one that does not import is a bad input like any other.
+        args = build_parser(command).parse_args(argv)
+        command = args.command
         return int(args.handler(args) or exits.OK)
     except (ParameterError, PlacementError, RecordExists) as error:
-        print(f'mona-swarm {args.command}: error: {error}', file=sys.stderr)
+        print(f'mona-swarm{f" {command}" if command else ""}: error: {error}', file=sys.stderr)
         return exits.USAGE
     except KeyboardInterrupt:
-        print(f'mona-swarm {args.command}: interrupted', file=sys.stderr)
+        print(f'mona-swarm{f" {command}" if command else ""}: interrupted', file=sys.stderr)
         return exits.INTERRUPTED

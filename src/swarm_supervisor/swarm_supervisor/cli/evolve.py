@@ -8,6 +8,9 @@ from pathlib import Path
 
 from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.engine.inputs import check_inputs
+from swarm_supervisor.outputs.guard import check_place
+from swarm_supervisor.study.cluster import check_address
 
 
 def register(subparsers) -> None:
@@ -49,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
         raise EvolutionError('--jobs and --scheduler exclude each other (a cluster has as '
                              'many jobs as its workers run)')
     design = load_design(args.design)
+    check_place(args.out)  # a file, a place that cannot take it, another writer
+    if args.scheduler:  # not an address: at once (evolve() then connects)
+        check_address(args.scheduler)
+    check_inputs(design.base)  # its files and metrics, before the first generation
     try:
         rows = evolve(design, args.out, jobs=args.jobs or 1, scheduler=args.scheduler,
                       scheduler_timeout=args.scheduler_timeout, shown=args.shown)

@@ -16,7 +16,7 @@ import ipaddress
 from pathlib import Path
 
 from swarm_supervisor import exits
-from swarm_supervisor.cli.arguments import bounded
+from swarm_supervisor.cli.arguments import bounded, speed_cm_s_unbounded
 from swarm_supervisor.system.launcher import ROLES, launch
 
 DESCRIPTION = ('Run the node system (world, supervisor, metrics and the controllers) as real '
@@ -85,11 +85,12 @@ def add_options(parser: argparse.ArgumentParser) -> None:
     add = parser.add_argument
     add('--population', type=bounded(int, 0), metavar='N',
         help="robots (default: the config's episode.population)")
-    add('--speed', type=bounded(float, 0.0, unit='cm/s'), metavar='CM_S',
-        help='robot speed in cm/s (sets controller.speed = CM_S / 100 m/s)')
+    add('--speed', type=speed_cm_s_unbounded, metavar='CM_PER_S',
+        help='robot speed in cm/s (sets controller.speed = CM_PER_S / 100 m/s); below 0.5 '
+             'is refused as m/s')
     add('--episodes', type=bounded(int, 1), default=1, metavar='E',
         help='episodes to run one after the other (default 1)')
-    add('--duration', type=bounded(float, 0.0, unit='s'), metavar='S',
+    add('--duration', type=bounded(float, 0.0, unit='s'), metavar='SECONDS',
         help='simulated seconds per episode (default: episode.duration)')
     add('--seed', type=bounded(int, 0), metavar='S',
         help='seed of the first episode (default: episode.seed)')
@@ -105,9 +106,9 @@ def add_options(parser: argparse.ArgumentParser) -> None:
              'source tree)')
     add('--controllers-per-process', dest='per_process', type=bounded(int, 1), default=1,
         metavar='K', help='robots per controller process, one node each (default 1)')
-    add('--timeout', type=bounded(int, 0, unit='s'), default=0, metavar='S',
+    add('--timeout', type=bounded(int, 0, unit='s'), default=0, metavar='SECONDS',
         help='wall-clock limit for the whole run, 0 = none (default 0)')
-    add('--start-timeout', type=bounded(int, 1, unit='s'), metavar='S',
+    add('--start-timeout', type=bounded(int, 1, unit='s'), metavar='SECONDS',
         help='how long the world waits for every controller and the metrics node to be ready '
              'for an episode (default max(60, 3 N) s)')
     add('-p', dest='params', type=_override, action='append', default=[],

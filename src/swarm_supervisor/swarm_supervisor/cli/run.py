@@ -16,9 +16,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 from mona_controller.schema import ParameterError
-from swarm_supervisor.cli.arguments import bounded, speed_cm_s
+from swarm_supervisor.cli.arguments import bounded, deprecated_alias, speed_cm_s
 from swarm_supervisor.config import SwarmConfig, load_config
-from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.engine.inputs import check_inputs
 from swarm_supervisor.engine.runner import (
     EpisodeObserver,
     EpisodeResult,
@@ -40,7 +40,8 @@ def register(subparsers) -> None:
         description='Run one episode in one process and write metrics.csv, episode.json, '
                     'snapshots.npz and a final cue-map PNG into --out; with --bag also its '
                     'rosbag2/MCAP record (--out/bag), as the metrics node writes it.')
-    parser.add_argument('--population', type=int, help='number of robots N (default: config)')
+    parser.add_argument('--population', type=int, metavar='N',
+                        help='number of robots N (default: config)')
     parser.add_argument('--speed', type=speed_cm_s, metavar='CM_PER_S',
                         help='forward speed in cm/s, e.g. 8 or 4 (default: config, whose '
                              'controller.speed is in m/s); below 0.5 is refused as m/s')
@@ -65,10 +66,11 @@ def register(subparsers) -> None:
                              "record the node system's metrics node writes (docs/bags.md)")
     parser.add_argument('--live', action='store_true',
                         help='serve the episode to Foxglove while it runs (WebSocket on '
-                             'localhost, see --port; docs/running.md)')
-    parser.add_argument('--port', type=bounded(int, 0, 65535), default=DEFAULT_PORT,
-                        help=f'--live: the WebSocket port (default {DEFAULT_PORT}; 0: any free '
-                             'one, printed)')
+                             'localhost, see --live-port; docs/running.md)')
+    parser.add_argument('--live-port', type=bounded(int, 0, 65535), default=DEFAULT_PORT,
+                        metavar='PORT', help=f'--live: the WebSocket port (default '
+                                             f'{DEFAULT_PORT}; 0: any free one, printed)')
+    deprecated_alias(parser, '--port', '--live-port')
     parser.add_argument('--linger', type=bounded(float, 0.0, 1e6), metavar='SECONDS',
                         help='--live: after the episode, keep serving its final state for '
                              'SECONDS (default: until Ctrl-C, which then exits 0; the outputs '
@@ -98,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     server = None
     if args.live:  # before --out is claimed: a busy port must not cost a record
         try:
-            server = LiveServer(args.port)
+            server = LiveServer(args.live_port)
         except RuntimeError as error:
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
@@ -199,7 +201,7 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
             f'{args.config or "the default configuration"}: episode.population'
         raise ParameterError(f'{source} = {population}: an episode needs at least one robot '
                              '(allowed [1, 100000])')
-    place_swarm(configs[0], configs[0].episode.seed)  # PlacementError before --out is touched
+    check_inputs(configs[0])  # files, placement, metrics: before --out is touched
     return configs
 
 

@@ -18,6 +18,8 @@ from swarm_supervisor.analysis.claims import all_claims
 from swarm_supervisor.analysis.report import analyse
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.config import load_config
+from swarm_supervisor.outputs.guard import check_place
+from swarm_supervisor.outputs.lock import hold
 
 
 def register(subparsers) -> None:
@@ -125,6 +127,7 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
     if unused:
         raise study.StudyError(f'{", ".join(unused)} cannot be combined with '
                                '--from-episodes, which runs nothing')
+    check_place(args.out)  # a file, a place that cannot take it, another writer
     folders = study.find_episodes(args.from_episodes)
     if not folders:
         raise study.StudyError('no episode folders (metrics.csv + episode.json) under '
@@ -140,6 +143,7 @@ def from_episodes(args: argparse.Namespace, started: float) -> int:
               file=sys.stderr)
         return 1
     study.claim_analysis_folder(args.out, args.from_episodes, overwrite=args.overwrite)
+    hold(args.out)  # created, and locked while the analysis is written
     report = analyse(args.out, folders, sources=[str(p) for p in args.from_episodes],
                      incomplete=incomplete, claims_files=args.claims)
     flagged = f' ({len(incomplete)} incomplete, listed in the report)' if incomplete else ''

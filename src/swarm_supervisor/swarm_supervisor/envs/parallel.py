@@ -24,6 +24,12 @@ from pettingzoo import ParallelEnv
 from swarm_metrics.metrics import mean_cue
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.episode import Episode
+from swarm_supervisor.envs.render import (
+    RENDER_MODES,
+    FrameDrawer,
+    check_render_mode,
+    no_mode_warning,
+)
 from swarm_supervisor.envs.spaces import (
     ACTION_SIZE,
     EnvError,
@@ -47,10 +53,14 @@ def agent_spaces(config: SwarmConfig) -> tuple[Box, Box]:
 class MonaSwarmParallelEnv(ParallelEnv):
     """N Monas cleaning one leak (the parameter file's episode), as PettingZoo agents."""
 
-    metadata = {'name': 'mona_swarm_v0', 'render_modes': [], 'is_parallelizable': True}
+    metadata = {'name': 'mona_swarm_v0', 'render_modes': RENDER_MODES,
+                'is_parallelizable': True}
 
-    def __init__(self, config: SwarmConfig | None = None) -> None:
-        """``config``: the episode (default: the shipped parameter file)."""
+    def __init__(self, config: SwarmConfig | None = None,
+                 render_mode: str | None = None) -> None:
+        """``config``: the episode (default: the shipped parameter file); ``render_mode``:
+        'rgb_array' for :meth:`render`'s frames, None for none."""
+        self.render_mode = check_render_mode(render_mode)
         self.config = config if config is not None else load_config()
         population = self.config.episode.population
         if population < 1:
@@ -64,6 +74,10 @@ class MonaSwarmParallelEnv(ParallelEnv):
         #: The robots' readings behind the latest observations (raw, for a controller).
         self.readings: Readings | None = None
         self._initial = self._mean = 0.0
+        #: The seed of the next unseeded reset (each reset takes the next one).
+        self._next_seed = self.config.episode.seed
+        self._cleaning = np.zeros(population, dtype=bool)
+        self._drawer: FrameDrawer | None = None
 
     def observation_space(self, agent: str) -> Box:
         """Every agent's observation space (see :mod:`~swarm_supervisor.envs.spaces`)."""
@@ -75,11 +89,17 @@ class MonaSwarmParallelEnv(ParallelEnv):
 
     def reset(self, seed: int | None = None,
               options: dict | None = None) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
-        """Start the episode over from ``seed`` (default ``episode.seed``): placement,
+        """Start a new episode: from ``seed`` if given, else from the seed after the last
+        episode's (the first from ``episode.seed``), so one seed fixes the whole sequence and
+        every unseeded reset is a fresh episode, as Gymnasium's convention has it; placement,
         cue and every stream as a run with that seed."""
+        if seed is not None:
+            self._next_seed = seed
         if self.episode is None:
             self.episode = Episode(self.config)
-        self.episode.reset(seed)
+        self.episode.reset(self._next_seed)
+        self._next_seed += 1
+        self._cleaning[:] = False
         self.agents = list(self.possible_agents)
         self.metrics = [self.episode.metrics()]
         self._initial = self._mean = mean_cue(self.episode.world.field.cue)
@@ -100,6 +120,7 @@ class MonaSwarmParallelEnv(ParallelEnv):
                            + (f' and {len(missing) - 3} more' if len(missing) > 3 else ''))
         command = commands_from_actions(np.stack([np.asarray(actions[agent], dtype=np.float64)
                                                   for agent in self.agents]), self.config.mona)
+        self._cleaning = command.cleaner
         for _ in range(episode.control_steps):
             if episode.drive(command).sampled:
                 self.metrics.append(episode.metrics())
@@ -122,6 +143,19 @@ class MonaSwarmParallelEnv(ParallelEnv):
         rows = observations(readings.ground, readings.ranges, readings.is_robot,
                             self.config.mona)
         return {agent: rows[i] for i, agent in enumerate(self.possible_agents)}
+
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode='rgb_array'``: the current state as the episode video's frame,
+        [H, W, 3] uint8 (:mod:`~swarm_supervisor.envs.render`); without a mode: None, and a
+        warning."""
+        if self.render_mode is None:
+            no_mode_warning()
+            return None
+        if self.episode is None:
+            raise EnvError('call reset() before render()')
+        if self._drawer is None:
+            self._drawer = FrameDrawer(self.config)
+        return self._drawer.frame(self.episode, self._cleaning)
 
     def state(self) -> np.ndarray:
         """The global state: every robot's pose [N, 3] (x m, y m, yaw rad), flattened."""

@@ -27,6 +27,12 @@ from swarm_metrics.metrics import mean_cue
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.engine.episode import Episode
+from swarm_supervisor.envs.render import (
+    RENDER_MODES,
+    FrameDrawer,
+    check_render_mode,
+    no_mode_warning,
+)
 from swarm_supervisor.envs.spaces import (
     ACTION_SIZE,
     EnvError,
@@ -40,10 +46,13 @@ from swarm_supervisor.envs.spaces import (
 class MonaSwarmVectorEnv(VectorEnv):
     """``num_envs`` episodes of one config, stepped together (see the module docstring)."""
 
-    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP}
+    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': RENDER_MODES}
 
-    def __init__(self, num_envs: int, config: SwarmConfig | None = None) -> None:
-        """``config``: each episode (default: the shipped parameter file)."""
+    def __init__(self, num_envs: int, config: SwarmConfig | None = None,
+                 render_mode: str | None = None) -> None:
+        """``config``: each episode (default: the shipped parameter file); ``render_mode``:
+        'rgb_array' for :meth:`render`'s frames, None for none."""
+        self.render_mode = check_render_mode(render_mode)
         if num_envs < 1:
             raise EnvError(f'num_envs must be at least 1, got {num_envs}')
         self.config = config if config is not None else load_config()
@@ -68,14 +77,20 @@ class MonaSwarmVectorEnv(VectorEnv):
         self._needs_reset = False
         self._initial = np.zeros(num_envs)
         self._mean = np.zeros(num_envs)
+        self._cleaning = np.zeros((num_envs, self.population), dtype=bool)
+        self._drawer: FrameDrawer | None = None
 
     def reset(self, *, seed: int | None = None,
               options: dict | None = None) -> tuple[np.ndarray, dict]:
-        """Start every episode over: episode k from ``seed + k`` (default: the config's
-        seed), the round count from 0."""
+        """Start new episodes: with ``seed``, episode k from ``seed + k`` (round 0); without,
+        the next round of seeds after the last (``seed + K r + k``, as the autoreset takes
+        them; the first round from the config's seed), so every unseeded reset starts fresh
+        episodes, as Gymnasium's convention has it, and one seed fixes the whole sequence."""
         if seed is not None:
             self._seed = seed
-        self._round = 0
+            self._round = 0
+        elif self.batch is not None:
+            self._round += 1
         return self._start(), {}
 
     def _start(self) -> np.ndarray:
@@ -84,6 +99,7 @@ class MonaSwarmVectorEnv(VectorEnv):
             episode.reset(first + k)
             self.metrics[k] = [episode.metrics()]
             self._initial[k] = self._mean[k] = mean_cue(episode.world.field.cue)
+        self._cleaning[:] = False
         self.batch = Batch(self.episodes)
         self._needs_reset = False
         return self._observe()
@@ -107,6 +123,7 @@ class MonaSwarmVectorEnv(VectorEnv):
         if actions.shape != expected:
             raise EnvError(f'actions must have shape {expected}, got {actions.shape}')
         command = commands_from_actions(actions.reshape(-1, ACTION_SIZE), self.config.mona)
+        self._cleaning = command.cleaner.reshape(self.num_envs, self.population)
         for _ in range(self.config.world.control_steps):
             for episode, step in self.batch.drive(command):
                 if step.sampled:
@@ -121,6 +138,20 @@ class MonaSwarmVectorEnv(VectorEnv):
         over = self.batch.done
         self._needs_reset = over
         return self._observe(), rewards, falses, np.full(self.num_envs, over), {}
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """With ``render_mode='rgb_array'``: one frame per episode, as its video draws it
+        ([H, W, 3] uint8, :mod:`~swarm_supervisor.envs.render`); without a mode: None, and a
+        warning."""
+        if self.render_mode is None:
+            no_mode_warning()
+            return None
+        if self.batch is None:
+            raise EnvError('call reset() before render()')
+        if self._drawer is None:
+            self._drawer = FrameDrawer(self.config)
+        return tuple(self._drawer.frame(episode, cleaning)
+                     for episode, cleaning in zip(self.episodes, self._cleaning))
 
     def _observe(self) -> np.ndarray:
         mona = self.config.mona

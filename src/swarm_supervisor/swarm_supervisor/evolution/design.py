@@ -44,12 +44,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from mona_controller.controllers.network_weights import MAX_HIDDEN, genome_size
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.evolution.strategies import STRATEGIES
+from swarm_supervisor.yaml_text import read_yaml
 
 
 class EvolutionError(ParameterError):
@@ -195,10 +194,4 @@ def load_design(path: str | Path) -> Design:
     Raises:
         EvolutionError: the file is missing, not YAML, or a key is bad (named).
     """
-    try:
-        document = yaml.safe_load(Path(path).read_text())
-    except OSError as error:
-        raise EvolutionError(f'cannot read {path}: {error.strerror}') from None
-    except yaml.YAMLError as error:
-        raise EvolutionError(f'{path} is not valid YAML: {error}') from None
-    return design_from_mapping(document, path)
+    return design_from_mapping(read_yaml(path, EvolutionError), path)

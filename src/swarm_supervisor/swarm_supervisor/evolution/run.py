@@ -40,6 +40,7 @@ from swarm_supervisor.evolution import strategies
 from swarm_supervisor.evolution.cluster import ClusterPool
 from swarm_supervisor.evolution.design import Design, EvolutionError
 from swarm_supervisor.evolution.fitness import evaluate
+from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
 
 #: The columns of generations.csv.
@@ -156,7 +157,7 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = 
 def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool | None,
             on_checkpoint: Any) -> list[dict[str, float]]:
     """The loop of :func:`evolve` on ``pool`` (None: this process) of ``jobs`` workers."""
-    out.mkdir(parents=True, exist_ok=True)
+    hold(out)  # created, and locked while the evolution runs
     state = load_checkpoint(out, design)
     if state is None:
         strategy = new_strategy(design)

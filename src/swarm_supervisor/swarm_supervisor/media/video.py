@@ -227,19 +227,25 @@ class Renderer:
 
     def render(self, t_ns: int) -> np.ndarray:
         """The frame at sim time ``t_ns`` (from the episode's start)."""
+        cue = self.cue_at(t_ns)
+        index = max(0, int(np.searchsorted(self.record.pose_times, t_ns, side='right')) - 1)
+        return self.compose(cue, self.record.poses[index], self.robot_colours(index, t_ns),
+                            t_ns)
+
+    def compose(self, cue: np.ndarray, poses: np.ndarray, colours: np.ndarray,
+                t_ns: int) -> np.ndarray:
+        """The frame of a state: the cue raster, the robots' poses [N, 3] in their colours
+        [N, 3] (uint8), at sim time ``t_ns`` (a learning environment's state, or a bag's)."""
         record, setup = self.record, self.record.setup
         frame = self.background.copy()
         top, left, h, w = self.map_box
         view = frame[top:top + h, left:left + w]
-        view[:] = self.map_pixels(self.cue_at(t_ns))
+        view[:] = self.map_pixels(cue)
         view[self.obstacle_fill] = OBSTACLE_FILL
         view[self.obstacle_edge] = OBSTACLE_EDGE
-        index = max(0, int(np.searchsorted(record.pose_times, t_ns, side='right')) - 1)
-        poses = record.poses[index]
         arena = setup.world.arena_side
         cols = np.rint(poses[:, 0] / arena * w).astype(np.int64)
         rows = np.rint((1 - poses[:, 1] / arena) * h).astype(np.int64)
-        colours = self.robot_colours(index, t_ns)
         for (dy, dx), colour in ((self.disc, colours), (self.rim, None)):
             y = np.clip(rows[:, None] + dy[None, :], 0, h - 1)
             x = np.clip(cols[:, None] + dx[None, :], 0, w - 1)

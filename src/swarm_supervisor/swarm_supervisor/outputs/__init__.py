@@ -10,7 +10,10 @@ _WHERE = {
     **dict.fromkeys(('BagOptions', 'BagRecorder', 'EMBEDDED_MODE', 'RecordError',
                      'TOPICS', 'record_episode', 'status_json'), 'bag'),
     **dict.fromkeys(('draw_cue_map', 'save_cue_map'), 'pictures'),
-    **dict.fromkeys(('RECORD_FILES', 'RecordExists', 'claim_output', 'record_in'), 'guard'),
+    **dict.fromkeys(('RECORD_FILES', 'RecordExists', 'check_output', 'check_place',
+                     'claim_output', 'empty', 'record_in'), 'guard'),
+    **dict.fromkeys(('OutputError', 'check_location'), 'location'),
+    **dict.fromkeys(('FolderBusy', 'check_free', 'hold', 'release'), 'lock'),
 }
 __all__ = sorted(_WHERE)
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE)

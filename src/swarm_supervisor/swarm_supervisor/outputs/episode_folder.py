@@ -100,6 +100,7 @@ def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = '
     config = result.config
     save_cue_map(out / FINAL_PNG, result.final_cue, result.final_poses,
                  config.world.arena_side, config.mona.body_radius,
+                 obstacles=config.world.arena().obstacles,
                  title=f'N = {config.episode.population}, v = {config.controller.speed * 100:g}'
                        f' cm/s, seed {config.episode.seed}, t = {result.metrics[-1]["t"]:g} s')
     record = episode_record(result, runner)

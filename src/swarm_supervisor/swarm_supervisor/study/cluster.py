@@ -15,10 +15,12 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import shutil
+import socket
 import sys
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from tqdm import tqdm
 
@@ -35,6 +37,9 @@ from swarm_supervisor.study.tasks import (
 
 #: Seconds to wait for the scheduler to answer before giving up (default).
 CONNECT_TIMEOUT = 30.0
+#: The address schemes of a scheduler other processes can reach (Dask's comm backends less
+#: 'inproc', which lives in one process).
+NETWORK_SCHEMES = ('tcp', 'tls', 'ws', 'wss', 'ucx')
 
 
 class ClusterError(StudyError):
@@ -76,17 +81,48 @@ def write_files(folder: str | Path, files: dict[str, bytes]) -> None:
     move_into_place(partial, folder)
 
 
-def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):  # -> distributed.Client
-    """A client of the Dask scheduler at ``scheduler`` (also ``mona-swarm evolve``'s).
+def check_address(scheduler: str) -> None:
+    """Refuse at once what cannot be a scheduler's address (Dask would retry it until its
+    timeout, then fail deep inside): an unknown scheme, no port, a port out of range, a host
+    name that does not resolve, or an in-process address.
 
     Raises:
-        ClusterError: dask.distributed is missing, or the scheduler does not answer within
-            ``timeout`` s.
+        ClusterError: naming the address, what is wrong and the form to give.
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    form = 'give tcp://HOST:PORT, e.g. tcp://10.0.0.1:8786'
+    scheme, location = parse_address(scheduler)
+    if scheme not in NETWORK_SCHEMES:
+        raise ClusterError(f'--scheduler {scheduler}: {scheme}:// is not a scheme of a Dask '
+                           f'scheduler on the network ({", ".join(NETWORK_SCHEMES)}): {form}')
+    try:
+        host, port = parse_host_port(location)
+    except ValueError:
+        raise ClusterError(f'--scheduler {scheduler}: no port: {form}') from None
+    if not host or not 1 <= port <= 65535:
+        raise ClusterError(f'--scheduler {scheduler}: expected a host and a port in 1..65535: '
+                           f'{form}')
+    try:
+        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as error:
+        raise ClusterError(f'--scheduler {scheduler}: the host {host} is unknown '
+                           f'({getattr(error, "strerror", None) or error}): {form}') from None
+
+
+def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):  # -> distributed.Client
+    """A client of the Dask scheduler at ``scheduler`` (also ``mona-swarm evolve``'s), its
+    address checked first (:func:`check_address`).
+
+    Raises:
+        ClusterError: dask.distributed is missing, the address is not one, or the scheduler
+            does not answer within ``timeout`` s.
     """
     try:
         from dask.distributed import Client
     except ImportError as error:  # pragma: no cover - dask is a requirement
         raise ClusterError(f'--scheduler needs dask.distributed ({error})') from None
+    check_address(scheduler)
     try:
         return Client(scheduler, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as error:
@@ -95,9 +131,10 @@ def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):  # -> distributed
 
 
 def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
-                   scheduler: str, progress: bool | None, timeout: float = CONNECT_TIMEOUT
-                   ) -> dict[str, tuple[float, float]]:
-    """Run the batches of tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``).
+                   scheduler: str, progress: bool | None, timeout: float = CONNECT_TIMEOUT,
+                   client: Any = None) -> dict[str, tuple[float, float]]:
+    """Run the batches of tasks on the cluster of ``scheduler`` (e.g. ``tcp://10.0.0.1:8786``),
+    with ``client`` if it is connected already (it is closed at the end either way).
 
     Episodes are written as they finish; Ctrl-C, SIGTERM or a failed episode cancels the
     rest (the finished ones stay, and the next call resumes from them).
@@ -111,8 +148,10 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
     """
     pending = [task for batch in batches for task in batch]
     if not pending:
+        if client is not None:
+            client.close()
         return {}
-    client = connect(scheduler, timeout)
+    client = client or connect(scheduler, timeout)
     from dask.distributed import as_completed
     ran: dict[str, tuple[float, float]] = {}
     futures = []

@@ -143,11 +143,22 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     """
     started, stamp = time.perf_counter(), time.strftime('%Y-%m-%dT%H:%M:%S')
     out = Path(out_dir)
+    outputs.check_place(out)  # a file, a place that cannot take it, another writer
+    if scheduler:  # at once: not an address (whether it answers is asked below)
+        from swarm_supervisor.study.cluster import check_address
+        check_address(scheduler)
     check_design(config)  # before a worker starts or a byte is written
+    if not overwrite:  # read only: a refusal leaves the folder as it was
+        specs, folders, pending = plan(config, out, bag=bag or videos)
+        claim_study_folder(config, out)
+    client = None
+    if scheduler and (overwrite or pending):  # an unreachable one is refused before --out
+        from swarm_supervisor.study.cluster import connect
+        client = connect(scheduler, scheduler_timeout)
+    outputs.hold(out)  # created, and locked while the study runs
     if overwrite:
         claim_study_folder(config, out, overwrite=True)
-    specs, folders, pending = plan(config, out, bag=bag or videos)
-    claim_study_folder(config, out)
+        specs, folders, pending = plan(config, out, bag=bag or videos)
     (out / EPISODES_DIR).mkdir(parents=True, exist_ok=True)
     write_ros_yaml(config, out / PARAMETERS_FILE)  # after the checks: a refusal changes nothing
     entry: dict[str, Any] = {'started': stamp, 'episodes': len(specs),
@@ -175,7 +186,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
         try:
             jobs, ran = run_tasks(pending, jobs=jobs, progress=progress,
                                   start_method=start_method, scheduler=scheduler,
-                                  scheduler_timeout=scheduler_timeout, batch_size=batch_size)
+                                  scheduler_timeout=scheduler_timeout, batch_size=batch_size,
+                                  client=client)
         except Interrupted as stopped:
             workers = 0 if scheduler else max(1, min(jobs or available_cpus(), len(pending)))
             stopped.kept = record(stopped.ran, workers, f'interrupted by {stopped.name}')
@@ -192,9 +204,10 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
 def run_tasks(pending: Sequence[EpisodeTask], *, jobs: int | None = None,
               progress: bool | None = None, start_method: str = 'spawn',
               scheduler: str | None = None, scheduler_timeout: float = 30.0,
-              batch_size: int = DEFAULT_BATCH_SIZE) -> tuple[int, dict[str, tuple[float, float]]]:
+              batch_size: int = DEFAULT_BATCH_SIZE, client: Any = None
+              ) -> tuple[int, dict[str, tuple[float, float]]]:
     """Run the tasks in batches on local processes or, with ``scheduler``, a Dask cluster
-    (arguments as :func:`run_study`'s).
+    (arguments as :func:`run_study`'s; ``client``: one connected to it already).
 
     Returns:
         (the worker processes used, 0 on a cluster; folder -> (wall s, CPU s) of each episode).
@@ -203,7 +216,7 @@ def run_tasks(pending: Sequence[EpisodeTask], *, jobs: int | None = None,
         from swarm_supervisor.study.cluster import run_on_cluster
         # As many batches as a few per worker would be; the cluster's size is not known here.
         return 0, run_on_cluster(make_batches(pending, batch_size, 1), scheduler, progress,
-                                 scheduler_timeout)
+                                 scheduler_timeout, client=client)
     jobs = max(1, min(jobs or available_cpus(), len(pending) or 1))
     return jobs, run_local(make_batches(pending, batch_size, jobs), jobs, progress, start_method)
 

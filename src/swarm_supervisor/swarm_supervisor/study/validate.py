@@ -3,9 +3,11 @@
 A study refuses (:class:`~swarm_supervisor.study.errors.StudyError`, exit status 2, one line
 naming the key and the fix) what would otherwise fail in a worker halfway through, or quietly
 run the same episode twice: a population of 0 robots, a level listed twice (two seeds of
-the same value are one episode), and a cell whose robots cannot be placed in its arena (the
+the same value are one episode), a cell whose robots cannot be placed in its arena (the
 engine's own placement, :func:`~swarm_supervisor.engine.episode.place_swarm`, is tried on
-every episode: it costs milliseconds and is exactly the check an episode would fail).
+every episode: it costs milliseconds and is exactly the check an episode would fail), and a
+cell whose files or metrics fail (:func:`~swarm_supervisor.engine.inputs.check_inputs` builds
+the first state of each distinct cell once).
 Empty lists and a factor's repeated levels are refused by the parameter schema already,
 when the file is read.
 """
@@ -15,8 +17,10 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.engine.inputs import check_inputs
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config
 from swarm_world.placement import PlacementError
@@ -62,8 +66,18 @@ def check_design(config: SwarmConfig) -> list[EpisodeSpec]:
                          '(speeds that differ by less than 1e-6 cm/s?); make the levels of '
                          'study.speeds distinct')
     placed: set[tuple[Any, ...]] = set()
+    built: set[str] = set()
     for spec in specs:
         episode = episode_config(config, spec)
+        inputs = repr((episode.world, episode.mona, episode.controller, episode.metrics))
+        if inputs not in built:  # the files and metrics of each distinct cell, once
+            built.add(inputs)
+            try:
+                check_inputs(episode)
+            except PlacementError:
+                pass  # said below, with the fix for a study
+            except ParameterError as error:
+                raise StudyError(f'episode {spec.name}: {error}') from None
         # Placement depends on these only; one try per distinct combination and seed.
         placement = (spec.population, spec.seed, repr(episode.world), episode.mona.body_radius)
         if placement in placed:

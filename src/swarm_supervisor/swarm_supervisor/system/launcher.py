@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -28,15 +27,20 @@ from pathlib import Path
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
+from swarm_supervisor.engine.inputs import check_inputs
 from swarm_supervisor.outputs.guard import RecordExists
 from swarm_supervisor.system.out_folder import claim_out, default_out
 from swarm_supervisor.system.preflight import (
+    EXECUTABLES,
     UsageError,
     check_fit,
     check_parameters,
     check_participants,
+    check_port,
+    check_profile,
     check_roles,
     config_file,
+    find_executable,
     forced_domain,
     run_overrides,
 )
@@ -48,7 +52,6 @@ from swarm_supervisor.system.processes import (
     groups_shm,
     local_address,
     peers_profile,
-    python_bin,
     remove_shm_leftovers,
     ros_environment,
     start_group,
@@ -61,11 +64,6 @@ from swarm_supervisor.system.progress import ProgressLine, read_progress
 from swarm_supervisor.system.records import incomplete_records
 
 PROG = 'mona-swarm launch'
-#: Node kind -> (package, executable).
-EXECUTABLES = {'world': ('swarm_world', 'world_node'),
-               'metrics': ('swarm_metrics', 'metrics_node'),
-               'controller': ('mona_controller', 'mona_controller_node'),
-               'supervisor': ('swarm_supervisor', 'supervisor_node')}
 #: Seconds the nodes get to end by themselves after the supervisor's shutdown announcement.
 SHUTDOWN_GRACE = 30.0
 #: Seconds the metrics node gets to notice a dead world and close its bag.
@@ -130,20 +128,6 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
     kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
     return {name: command for name, command in commands.items()
             if name.partition('_')[0] in kinds}
-
-
-def find_executable(package: str, name: str) -> str:
-    """A node executable: next to this Python or on PATH (pip), else in a sourced colcon
-    workspace (``$AMENT_PREFIX_PATH/lib/<package>/<name>``)."""
-    found = shutil.which(name, path=f'{python_bin()}{os.pathsep}{os.environ.get("PATH", "")}')
-    if found:
-        return found
-    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
-        candidate = Path(prefix) / 'lib' / package / name
-        if candidate.is_file() and os.access(candidate, os.X_OK):
-            return str(candidate)
-    raise UsageError(f"cannot find {name} ({package}): run 'make venv', or source a colcon "
-                     'workspace (ros_ws/README.md)')
 
 
 def say(message: str) -> None:
@@ -323,7 +307,12 @@ def launch(options: argparse.Namespace) -> int:
             check_fit(config, options.episodes,
                       '--population' if options.population is not None else
                       'episode.population')
+        if 'world' in ROLES[options.role]:  # its cue file, the metrics of its first state
+            check_inputs(config)
         check_participants(options, config.episode.population, domain)
+        if options.live:  # the live node would fail after the whole run
+            check_port(options.live_port, '--live-port')
+        check_profile(os.environ.get('SWARM_FASTDDS_PROFILE'))
         address = local_address(options.peers) if options.peers else None
         if options.peers and address is None:
             raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
@@ -340,7 +329,7 @@ def launch(options: argparse.Namespace) -> int:
     try:
         claim_out(out, getattr(options, 'overwrite', False))
         (out / 'logs').mkdir(parents=True, exist_ok=True)
-    except RecordExists as error:
+    except (RecordExists, ParameterError) as error:  # a record, a writer, a bad place
         say(str(error))
         return exits.USAGE
     except OSError as error:

@@ -4,31 +4,30 @@ leaves, :func:`~swarm_supervisor.system.preflight.node_run_in`)."""
 
 from __future__ import annotations
 
-import shutil
 import time
 from pathlib import Path
 
-from swarm_supervisor.outputs.guard import RecordExists, claim_output
+from swarm_supervisor.outputs.guard import RecordExists, check_output, claim_output, empty
 from swarm_supervisor.system.preflight import node_run_in
 
 
 def claim_out(out: Path, overwrite: bool) -> None:
-    """Make ``out`` ready for the run (:func:`~swarm_supervisor.outputs.guard.claim_output`):
-    a folder holding an earlier record, also a node-system run that the guard's markers miss
-    (:func:`~swarm_supervisor.system.preflight.node_run_in`), is refused unless
-    ``overwrite``, which deletes it whole: a run never writes beside an old bag.
+    """Make ``out`` ready for the run (:func:`~swarm_supervisor.outputs.guard.claim_output`:
+    created and locked): a folder holding an earlier record, also a node-system run that the
+    guard's markers miss (:func:`~swarm_supervisor.system.preflight.node_run_in`), is refused
+    unless ``overwrite``, which empties it: a run never writes beside an old bag.
 
     Raises:
         RecordExists: naming the folder, what it holds and ``--overwrite``.
     """
-    claim_output(out, overwrite=overwrite)
+    check_output(out, overwrite=overwrite)
     marker = node_run_in(out)
-    if marker is None:
-        return
-    if not overwrite:
+    if marker is not None and not overwrite:
         raise RecordExists(f'--out {out} already holds a node-system run ({marker}): choose '
                            'another --out, or pass --overwrite to replace it whole')
-    shutil.rmtree(out)
+    claim_output(out, overwrite=overwrite)  # created and locked while the run lasts
+    if marker is not None:
+        empty(out)
 
 
 def default_out() -> Path:

@@ -8,7 +8,10 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shutil
+import socket
 from pathlib import Path
+from xml.etree import ElementTree
 
 import yaml
 
@@ -20,6 +23,8 @@ from swarm_supervisor.config import (
     load_config,
 )
 from swarm_supervisor.engine.episode import place_swarm
+from swarm_supervisor.system.processes import python_bin
+from swarm_supervisor.system.ros_yaml import check_ros_file, check_ros_override
 from swarm_world.placement import MAX_COVERAGE, PlacementError
 
 
@@ -73,11 +78,16 @@ def run_overrides(options: argparse.Namespace) -> list[str]:
 def check_parameters(config_path: Path, overrides: list[str]) -> SwarmConfig:
     """The run's parameters: the file with the overrides of model parameters (``section.key``)
     applied and validated like the nodes do. Node options (``lockstep_deadline``) pass as is.
+    The file and every override must read the same to a ROS node
+    (:mod:`~swarm_supervisor.system.ros_yaml`).
 
     Raises:
         ParameterError: naming the bad parameter.
     """
     config = load_config(config_path)
+    check_ros_file(config_path)
+    for text in overrides:
+        check_ros_override(text)
     known = config.to_dict()
     values = {}
     for text in overrides:
@@ -186,6 +196,42 @@ def check_participants(options: argparse.Namespace, population: int,
         f'this host (about {limit} fit {where}): {hint}')
 
 
+def check_port(port: int, option: str, host: str = '127.0.0.1') -> None:
+    """The live node can listen on ``host:port`` (0: any free port, always).
+
+    Raises:
+        UsageError: the port is taken (another live view, any server), naming it and the fix.
+    """
+    if port == 0:
+        return
+    with socket.socket() as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will
+        try:
+            probe.bind((host, port))
+        except OSError as error:
+            raise UsageError(f'{option} {port}: {host}:{port} is taken ({error.strerror}): '
+                             f'give another {option}, or 0 for any free one') from None
+
+
+def check_profile(path: str | None) -> None:
+    """A Fast DDS profile named by ``SWARM_FASTDDS_PROFILE`` exists and is XML (a node
+    would only warn and run with the defaults).
+
+    Raises:
+        UsageError: naming the variable, the file and what is wrong.
+    """
+    if not path:
+        return
+    try:
+        ElementTree.parse(path)
+    except OSError as error:
+        raise UsageError(f'SWARM_FASTDDS_PROFILE={path}: cannot read it ({error.strerror}): '
+                         'name a Fast DDS XML profile, or unset it') from None
+    except ElementTree.ParseError as error:
+        raise UsageError(f'SWARM_FASTDDS_PROFILE={path} is not XML ({error}): name a Fast '
+                         'DDS XML profile, or unset it') from None
+
+
 def node_run_in(folder: Path) -> Path | None:
     """A file that shows ``folder`` holds (part of) an earlier node-system run, or None: its
     ``run.json`` or ``processes.tsv``, or a bag's ``metadata.yaml`` or ``.mcap`` under
@@ -201,3 +247,24 @@ def node_run_in(folder: Path) -> Path | None:
         if found:
             return found[0]
     return None
+
+
+#: Node kind -> (package, executable).
+EXECUTABLES = {'world': ('swarm_world', 'world_node'),
+               'metrics': ('swarm_metrics', 'metrics_node'),
+               'controller': ('mona_controller', 'mona_controller_node'),
+               'supervisor': ('swarm_supervisor', 'supervisor_node')}
+
+
+def find_executable(package: str, name: str) -> str:
+    """A node executable: next to this Python or on PATH (pip), else in a sourced colcon
+    workspace (``$AMENT_PREFIX_PATH/lib/<package>/<name>``)."""
+    found = shutil.which(name, path=f'{python_bin()}{os.pathsep}{os.environ.get("PATH", "")}')
+    if found:
+        return found
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        candidate = Path(prefix) / 'lib' / package / name
+        if candidate.is_file() and os.access(candidate, os.X_OK):
+            return str(candidate)
+    raise UsageError(f"cannot find {name} ({package}): run 'make venv', or source a colcon "
+                     'workspace (ros_ws/README.md)')

@@ -13,14 +13,35 @@ from pathlib import Path
 
 import rclpy
 from builtin_interfaces.msg import Time
+from rclpy._rclpy_pybind11 import RCLError
+from rclpy.context import Context
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from mona_controller import qos
+from mona_controller.schema import ParameterError
 from swarm_metrics.bags.reader import McapScan
 
 #: The QoS of a recorded topic the contract does not know.
 OTHER_QOS = QoSProfile(depth=10)
+
+
+def check_ros_environment() -> None:
+    """rcl takes this process's ROS environment (``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``,
+    ...): a context of its own is started and shut down (no DDS participant yet), so a bad
+    variable is refused before the bag is read.
+
+    Raises:
+        ParameterError: naming what rcl refused.
+    """
+    context = Context()
+    try:
+        rclpy.init(args=[], context=context)
+    except RCLError as error:
+        reason = str(error).removeprefix('failed to initialize rcl: ').split(', at ')[0]
+        raise ParameterError(f'the ROS environment is not usable: {reason}: fix or unset the '
+                             'variable') from None
+    rclpy.shutdown(context=context)
 
 
 def play(mcap: Path, topics: dict[str, str], *, rate: float = 1.0,
