@@ -64,7 +64,7 @@ def _mixed_batch() -> list[SwarmConfig]:
     return [
         base.replace(episode={'population': 10, 'seed': 1}, controller={'speed': 0.04}),
         base.replace(episode={'population': 30, 'seed': 2},
-                     controller={'alpha': 3.0, 'avoid': 'random-turn'}),
+                     controller={'beeclust': {'alpha': 3.0, 'avoid': 'random-turn'}}),
         base.replace(episode={'population': 5, 'seed': 4, 'duration': 90.0},
                      mona={'ir_range': 0.05}, sensing={'wheel_noise': 0.1}),
         base.replace(episode={'population': 50, 'seed': 6}),
