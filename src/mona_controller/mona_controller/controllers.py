@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 CONTROLLERS: dict[str, str] = {
     'beeclust': 'mona_controller.controller:SwarmController',
     'network': 'mona_controller.network:NetworkController',
+    'stand_net': 'mona_controller.stand_net:StandNetController',
 }
 #: The entry-point group through which an installed package adds controller kinds
 #: (``name = 'module:Class'``): every process (a study's workers, every node) sees them.
