@@ -13,7 +13,7 @@ so the fitness does not depend on how the episodes are cut or where they run.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -81,15 +81,16 @@ def batches(configs: Sequence[SwarmConfig], size: int, jobs: int) -> list[list[S
 
 
 def run_scores(configs: Sequence[SwarmConfig], size: int, pool: Any | None,
-               jobs: int) -> list[float]:
-    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool`` (a
-    multiprocessing pool of ``jobs`` processes or a
+               jobs: int, func: Callable[[list[SwarmConfig]], list[Any]] = run_configs
+               ) -> list[Any]:
+    """Each episode's fitness (or what ``func`` makes of a batch), in order, in batches of
+    at most ``size`` on ``pool`` (a multiprocessing pool of ``jobs`` processes or a
     :class:`~swarm_supervisor.evolution.cluster.ClusterPool`) or in this process."""
     cut = batches(configs, size, jobs)
     if pool is None:
-        scores = [run_configs(batch) for batch in cut]
+        scores = [func(batch) for batch in cut]
     else:
-        scores = pool.map(run_configs, cut, chunksize=1)
+        scores = pool.map(func, cut, chunksize=1)
     return [score for batch in scores for score in batch]
 
 
