@@ -99,7 +99,7 @@ def _checked(path: Path, section: dict[str, Any]) -> dict[str, Any]:
         raise PlanError(f'{path}: unknown key heldout.{unknown[0]}; known: ' + ', '.join(KEYS))
     values = {}
     for key, (kind, default) in KEYS.items():
-        value = section.get(key, default)
+        value: Any = section.get(key, default)
         if value is None:
             raise PlanError(f'{path}: heldout.{key} is missing')
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
