@@ -106,7 +106,7 @@ def _checked(path: Path, section: dict[str, Any]) -> dict[str, Any]:
             value = float(value)
         if not isinstance(value, kind) or isinstance(value, bool):
             raise PlanError(f'{path}: heldout.{key} = {value!r}: expected a {kind.__name__}')
-        if kind in (int, float) and value <= 0:
+        if isinstance(value, (int, float)) and value <= 0:
             raise PlanError(f'{path}: heldout.{key} = {value!r} must be > 0')
         values[key] = value
     return values
