@@ -2,7 +2,7 @@
 engine (N = 30, K = 16 episodes by default, the study's batch size).
 
 Each round runs the same batch (seeds 1..K, the shipped parameter file) once with
-``controller.kind: beeclust`` and once with ``network`` (weights drawn from network_seed,
+``controller.kind: beeclust`` and once with ``network`` (weights drawn from its seed,
 ``--hidden`` neurons, ``--recurrent`` or not), alternating; the best of ``--rounds`` rounds
 counts. It prints microseconds per robot-step of the whole engine (sensing, controller,
 physics, metrics) and of the controller's step alone (the merged controller stepped on
@@ -19,8 +19,7 @@ import time
 
 import numpy as np
 
-from mona_controller.controllers import make_controller
-from mona_controller.reference import random_readings
+from mona_controller.controllers import make_controller, random_readings
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.runner import run_batch
 
@@ -29,8 +28,8 @@ def configs(base: SwarmConfig, kind: str, args: argparse.Namespace) -> list[Swar
     """The batch's episodes with the controller ``kind``."""
     return [base.replace(episode={'population': args.population, 'duration': args.duration,
                                   'seed': seed},
-                         controller={'kind': kind, 'network_hidden': args.hidden,
-                                     'network_recurrent': args.recurrent})
+                         controller={'kind': kind, 'network': {'hidden': args.hidden,
+                                                               'recurrent': args.recurrent}})
             for seed in range(1, args.batch + 1)]
 
 

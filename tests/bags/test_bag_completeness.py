@@ -309,12 +309,15 @@ def test_sources_must_be_where_the_announced_parameters_put_them():
 def test_robot_states_need_one_known_code_per_robot():
     pose_times = [at(1.0), at(2.0)]
     good = [(at(t), [0, 2, 3]) for t in (0.0, 1.0, 2.0)]
-    assert completeness.check_states(good, pose_times, START_NS, 3) == []
+    assert completeness.check_states(good, pose_times, START_NS, 3, 4) == []
     (short,) = completeness.check_states(good[:1] + [(at(1.0), [0, 2])] + good[2:],
-                                         pose_times, START_NS, 3)
+                                         pose_times, START_NS, 3, 4)
     assert 'at t = 1 s are [0, 2]: expected 3 codes below 4' in short.detail
     (unknown,) = completeness.check_states(good[:2] + [(at(2.0), [0, 9, 1])], pose_times,
-                                           START_NS, 3)
+                                           START_NS, 3, 4)
     assert '[0, 9, 1]' in unknown.detail
-    (missing,) = completeness.check_states(good[1:], pose_times, START_NS, 3)
+    # The kind's states say which codes are known: a kind with three has no code 3.
+    (beyond,) = completeness.check_states(good, pose_times, START_NS, 3, 3)
+    assert 'expected 3 codes below 3' in beyond.detail
+    (missing,) = completeness.check_states(good[1:], pose_times, START_NS, 3, 4)
     assert 'the first at t = 0 s' in missing.detail

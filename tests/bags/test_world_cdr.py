@@ -10,11 +10,11 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, String
 
 from mona_controller.contract import WorldState, WorldStatus
+from mona_controller.controllers.beeclust import STATES
 from mona_controller.messages import set_stamp
 from mona_controller.mona import MonaParams
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.world_cdr import (
-    STATE_COLOURS,
     clock_cdr,
     cue_grid_cdr,
     cue_image_cdr,
@@ -43,6 +43,9 @@ from swarm_world.world_messages import (
 )
 
 pytestmark = pytest.mark.ros
+
+#: BEECLUST's states' colours, by code.
+PALETTE = [state.colour for state in STATES]
 NS = 12_345_678_901
 
 
@@ -80,17 +83,17 @@ def test_small_messages_are_rclpy_bytes():
     states = np.array([0, 1, 2, 3, 2], dtype=np.uint8)
     assert states_from_cdr(states_cdr(states)).tolist() == states.tolist()
     poses = np.random.default_rng(5).uniform(0, 2.85, (5, 3))
-    markers = TYPESTORE.deserialize_cdr(markers_cdr(poses, states, 0.04, NS),
+    markers = TYPESTORE.deserialize_cdr(markers_cdr(poses, states, 0.04, NS, palette=PALETTE),
                                         'visualization_msgs/msg/MarkerArray').markers
     assert [m.id for m in markers] == list(range(5))
     assert [(m.pose.position.x, m.pose.position.y) for m in markers] == \
         [tuple(p) for p in poses[:, :2].tolist()]
     assert [(m.color.r, m.color.g, m.color.b) for m in markers] == \
-        [tuple(np.float32(c)) for c in np.array(STATE_COLOURS)[states, :3]]
+        [tuple(np.float32(c)) for c in np.array(PALETTE)[states, :3]]
     assert {(m.header.stamp.sec, m.header.stamp.nanosec, m.header.frame_id, m.scale.x)
             for m in markers} == {(12, 345_678_901, 'world', 0.08)}
     # Built by tiling one marker's bytes: equal to the type store's own serialization.
-    assert markers_cdr(poses, states, 0.04, NS) == TYPESTORE.serialize_cdr(
+    assert markers_cdr(poses, states, 0.04, NS, palette=PALETTE) == TYPESTORE.serialize_cdr(
         TYPESTORE.types['visualization_msgs/msg/MarkerArray'](markers=markers),
         'visualization_msgs/msg/MarkerArray')
 
@@ -157,8 +160,8 @@ def test_robot_markers_of_both_runners_are_the_same_message():
     poses = np.random.default_rng(3).uniform(0, 2.85, (6, 3))
     states = np.array([0, 1, 2, 3, 2, 0], dtype=np.uint8)
     msgtype = 'visualization_msgs/msg/MarkerArray'
-    ours = markers_cdr(poses, states, 0.04, NS)
-    theirs = bytes(serialize_message(robot_markers(poses, states, 0.04, NS)))
+    ours = markers_cdr(poses, states, 0.04, NS, palette=PALETTE)
+    theirs = bytes(serialize_message(robot_markers(poses, states, 0.04, NS, palette=PALETTE)))
     assert len(ours) == len(theirs)
     assert TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(ours, msgtype), msgtype) == \
         TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(theirs, msgtype), msgtype)

@@ -15,7 +15,7 @@ import numpy as np
 from scipy import ndimage
 
 #: Hue (degrees) of each controller state's colour as the 3D panel draws it
-#: (swarm_metrics.world_cdr.STATE_COLOURS: green, orange, red, blue).
+#: (BEECLUST's states, mona_controller.controllers.beeclust.STATES: green, orange, red, blue).
 STATE_HUES = {'follow': 125.0, 'avoid': 37.0, 'wait': 0.0, 'turn': 224.0}
 #: The arena outline (layer colour #fff000), the obstacles (#00bcd4) and the sources
 #: (swarm_world.arena_markers.SOURCE_COLOUR, magenta).

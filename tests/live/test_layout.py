@@ -7,6 +7,7 @@ import json
 import re
 from pathlib import Path
 
+from mona_controller.controllers.beeclust import STATES as BEECLUST_STATES
 from mona_controller.topics import TOPICS as CONTRACT
 from mona_controller.topics import metric_topic
 from swarm_metrics.metrics import PAPER_METRICS, plotted
@@ -92,10 +93,24 @@ def test_the_layout_names_only_topics_the_bags_and_the_live_view_carry():
     assert shown == {'/metrics/mean_cue_fraction', '/metrics/ratio_near_source',
                      '/metrics/coherency'}
     assert {'/episode', '/world/status'} <= everything
-    assert scripts == [(['/world/poses', '/world/robot_states'], '/studio_script/robots')]
+    assert scripts == [(['/episode', '/world/poses', '/world/robot_states'],
+                        '/studio_script/robots')]
     assert named['3D!arena'] == {'/studio_script/robots', '/world/cue_grid',
                                  '/world/obstacles', '/world/sources'}
     assert named['ImageViewPanel!cue'] == {'/world/cue_map'}
+
+
+def test_the_robots_script_takes_the_announced_states_and_falls_back_to_beeclusts():
+    """The script colours robots by the states /episode announces (any kind's); a bag from
+    before the kinds announced them gets BEECLUST's colours, the very ones the kind
+    declares."""
+    (node,) = json.loads(LAYOUT.read_text())['userNodes'].values()
+    source = node['sourceCode']
+    assert 'announced.states' in source and 'palette[state] ?? NO_STATE' in source
+    block = re.search(r'const BEECLUST: Colour\[\] = \[(.*?)\];', source, re.S).group(1)
+    colours = [tuple(float(v) for v in re.findall(r'[rgba]: ([\d.]+)', row))
+               for row in re.findall(r'\{[^}]*\}', block)]
+    assert colours == [state.colour for state in BEECLUST_STATES]
 
 
 def test_robots_obstacles_and_outline_have_colours_seen_on_any_cue():

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mona_controller.controllers.beeclust import STATES
 from swarm_metrics.bag_reader import read_episode_bag
-from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.live import LIVE_TOPICS
 from swarm_supervisor.media.recorded import read_record
 from swarm_world.arena_markers import obstacles_from_markers
@@ -93,7 +93,7 @@ def test_robots_arena_cue_and_sim_time(watched):
         assert ((xy > 0) & (xy < 2.85)).all()  # inside the arena
     markers = seen.messages['/world/markers'][-1][1].markers
     assert [m.id for m in markers] == list(range(POPULATION))
-    colours = {tuple(round(c, 3) for c in colour) for colour in STATE_COLOURS}
+    colours = {tuple(round(c, 3) for c in state.colour) for state in STATES}
     assert {(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3),
              round(m.color.a, 3)) for m in markers} <= colours
     states = seen.messages['/world/robot_states'][-1][1]

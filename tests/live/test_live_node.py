@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from swarm_metrics.world_cdr import STATE_COLOURS
+from mona_controller.controllers.beeclust import STATES
 from swarm_supervisor.system.live_node import NODE_TOPICS
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
@@ -120,7 +120,7 @@ def test_after_the_run_the_live_view_serves_its_final_state_until_ctrl_c(tmp_pat
         # The world's markers are coloured by the states it gathers (the embedded colours).
         markers = seen.messages['/world/markers'][-1][1].markers
         assert [(round(m.color.r, 3), round(m.color.g, 3), round(m.color.b, 3))
-                for m in markers] == [tuple(round(c, 3) for c in STATE_COLOURS[s][:3])
+                for m in markers] == [tuple(round(c, 3) for c in STATES[s].colour[:3])
                                       for s in states]
         assert run.process.poll() is None  # still serving
         os.killpg(run.process.pid, signal.SIGINT)

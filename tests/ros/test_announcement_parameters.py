@@ -99,14 +99,17 @@ def test_the_shipped_keys_alone_are_accepted_and_one_differing_value_is_refused(
     spin_until(lambda: START_NS in world.stamps, what='the accepted episode answered')
     assert controller.active and world.errors == []
 
-    # Episode 1 announces another IR range: refused, naming the key with both values.
+    # Episode 1 announces another IR range and gain: refused, naming the keys with both
+    # values (a kind's section too).
     sections['mona']['ir_range'] = 0.05
+    sections['controller']['beeclust']['alpha'] = 2.5
     start = START_NS + 100 * STEP_NS
     world.announce(1, start, sections)
     spin_until(lambda: controller.episode.episode == 1, what='announcement 1')
     spin_until(lambda: world.errors, what='the refusal logged')
     assert 'episode 1 refused' in world.errors[-1]
     assert 'mona.ir_range: announced 0.05, here 0.03' in world.errors[-1]
+    assert 'controller.beeclust.alpha: announced 2.5, here 2.0' in world.errors[-1]
     assert not controller.active
     for k in range(5):  # the readings a world sends go unanswered: the robot is absent
         world.send(start + k * STEP_NS)

@@ -15,9 +15,9 @@ from std_msgs.msg import Bool, String, UInt8
 
 from mona_controller import qos
 from mona_controller.contract import Announcement
-from mona_controller.controller import FOLLOW, WAIT, ControllerParams
 from mona_controller.controller_node import ControllerNode, parse_robots
-from mona_controller.controllers import controller_class
+from mona_controller.controllers import ControllerParams, controller_class
+from mona_controller.controllers.beeclust import FOLLOW, WAIT
 from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
@@ -98,6 +98,20 @@ class Driver(Node):
         return [value for kind, value in self.answers if kind == 'cmd']
 
 
+def test_a_renamed_key_still_works_and_the_kinds_sections_are_parameters(executor):
+    """An old key (a file from before the kinds had sections) sets its new key, which the
+    node declares as a ROS parameter, as it does every kind's section."""
+    node = ControllerNode(ROBOT, context=executor.context,
+                          parameter_overrides=[Parameter('controller.alpha', value=3.5)])
+    try:
+        assert node.params.beeclust.alpha == 3.5
+        assert node.get_parameter('controller.beeclust.alpha').value == 3.5
+        assert node.get_parameter('controller.network.hidden').value == 8
+        assert node.get_parameter('controller.alpha').value == 3.5  # declared, deprecated
+    finally:
+        node.destroy_node()
+
+
 @pytest.fixture
 def pair(executor, spin_until):
     """A controller node for robot 3 and its driver, connected."""
@@ -131,7 +145,8 @@ def test_answers_each_reading_once_with_its_stamp_and_the_eq2_turn(pair, spin_un
     # The exact eq. 2 numbers: wheels beta -/+ (l - r) / alpha, through wheels_to_twist.
     mona, params = MonaParams(), ControllerParams()
     beta = params.speed / mona.wheel_unit_speed
-    left, right = beta - 100 / params.alpha, beta + 100 / params.alpha
+    alpha = params.beeclust.alpha
+    left, right = beta - 100 / alpha, beta + 100 / alpha
     left, right = min(max(left, 0), mona.max_wheel_command), min(right, mona.max_wheel_command)
     assert v1 == pytest.approx((left + right) / 2 * mona.wheel_unit_speed)
     assert w1 == pytest.approx((right - left) * mona.wheel_unit_speed / mona.wheel_separation)

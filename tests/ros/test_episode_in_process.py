@@ -62,7 +62,7 @@ MODELS = {
     # The sweepable decisions and the noise streams, drawn in the world from the seed.
     'decisions-and-noise': {
         'mona.ir_range': 0.06, 'mona.ir_count': 7, 'mona.ground_footprint': 0.03,
-        'controller.avoid': 'random-turn', 'controller.alpha': 10.0,
+        'controller.beeclust.avoid': 'random-turn', 'controller.beeclust.alpha': 10.0,
         'world.cleaning': 'literal',
         'mona.ground_noise': 6.0, 'mona.ir_miss': 0.1, 'mona.wheel_noise': 0.05},
     # The controllers answer every third step; the world holds their commands between.
@@ -76,7 +76,8 @@ MODELS = {
     'encounter-model': {'mona.robot_detection': 'position', 'mona.ir_robot_factor': 0.3,
                         'mona.ir_miss': 0.1},
     # Turns in place at the robot's own speed.
-    'turn-at-speed': {'controller.turn_at': 'speed', 'controller.wait_max': 5.0},
+    'turn-at-speed': {'controller.beeclust.turn_at': 'speed',
+                      'controller.beeclust.wait_max': 5.0},
     # A radio link's delay: each command reaches the wheels 3 control steps (of 2) later.
     'command-latency': {'mona.command_latency': 3, 'world.control_steps': 2},
 }
@@ -108,10 +109,7 @@ def test_non_default_model_parameters_match_the_embedded_runner(executor, spin_u
 
     sections: dict[str, dict] = {'episode': {'population': population, 'duration': duration,
                                              'seed': seed}}
-    for key, value in model.items():
-        section, _, name = key.partition('.')
-        sections.setdefault(section, {})[name] = value
-    embedded = run_episode(SwarmConfig().replace(**sections))
+    embedded = run_episode(SwarmConfig().replace(**sections).with_values(model))
     final = np.load(tmp_path / 'episode_0' / FINAL_FILE)
     assert int(final['steps']) == embedded.steps and final['misses'].sum() == 0
     assert np.array_equal(final['poses'], embedded.final_poses)

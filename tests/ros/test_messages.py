@@ -9,6 +9,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
+from mona_controller.controllers.beeclust import STATES
 from mona_controller.messages import (
     fill_readings,
     ground_from_image,
@@ -80,7 +81,8 @@ def test_cue_image_has_the_top_row_first_and_the_grid_the_origin_first():
 
 def test_markers_are_coloured_by_state_red_while_waiting():
     markers = robot_markers(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]),
-                            np.array([0, 2], dtype=np.uint8), 0.04, 5)
+                            np.array([0, 2], dtype=np.uint8), 0.04, 5,
+                            palette=[state.colour for state in STATES])
     colours = [(m.color.r, m.color.g) for m in markers.markers]
     assert colours[0][1] > colours[0][0] and colours[1][0] > colours[1][1]
     assert [m.id for m in markers.markers] == [0, 1]

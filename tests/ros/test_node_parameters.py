@@ -17,10 +17,16 @@ CASES = {
     # rclpy rejects the override against the declared range; we say it the schema's way
     'controller_range': (CONTROLLER + ['-p', 'controller.speed:=5.0'],
                          'controller.speed = 5.0 is out of range: allowed [0, 1] m/s'),
-    'controller_type': (CONTROLLER + ['-p', 'controller.alpha:=fast'],
-                        "controller.alpha = 'fast': expected a number"),
+    'controller_type': (CONTROLLER + ['-p', 'controller.beeclust.alpha:=fast'],
+                        "controller.beeclust.alpha = 'fast': expected a number"),
     'controller_unknown': (CONTROLLER + ['-p', 'controller.sped:=0.1'],
-                           'unknown parameter controller.sped; known in controller: alpha'),
+                           'unknown parameter controller.sped; known in controller: '
+                           'beeclust.alpha'),
+    # a renamed key still works (tests/ros/test_controller_node.py), but not beside its new one
+    'controller_renamed_twice': (CONTROLLER + ['-p', 'controller.alpha:=3.0', '-p',
+                                               'controller.beeclust.alpha:=3.0'],
+                                 'controller.alpha and controller.beeclust.alpha are both '
+                                 'given: give controller.beeclust.alpha only'),
     'controller_no_id': ([str(BIN / 'mona_controller_node')], 'robot_id is not set'),
     'world_choice': ([str(BIN / 'world_node'), '--ros-args', '-p', 'mode:=fast'],
                      "mode = 'fast' is not allowed: one of 'lockstep', 'realtime'"),

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from sensor_msgs.msg import Image, LaserScan
 
-from mona_controller.controller import ControllerParams, SwarmController
+from mona_controller.controllers import ControllerParams, SwarmController
 from mona_controller.messages import (
     ReadingError,
     fill_twist,

@@ -26,8 +26,8 @@ TINY = {
     'screen': {'populations': [3, 6], 'speeds': [0.04, 0.08], 'seeds': [1, 2],
                'duration': 20.0, 'snapshot_times': [20.0]},
     'confirm': {'candidates': 1},
-    'parameters': {'controller.alpha': {'low': 1.0, 'high': 20.0, 'log': True},
-                   'controller.avoid': {'choices': ['turn-away', 'random-turn']},
+    'parameters': {'controller.beeclust.alpha': {'low': 1.0, 'high': 20.0, 'log': True},
+                   'controller.beeclust.avoid': {'choices': ['turn-away', 'random-turn']},
                    'world.step_period': {'low': 0.02, 'high': 0.05}},
 }
 
@@ -66,8 +66,8 @@ def test_a_search_runs_scores_confirms_and_writes_a_profile(tmp_path):
     profile = load_config(out / 'best_profile.yaml')
     best = int(confirmed[0].name.split('_')[1])
     row = table[table['trial'] == best].iloc[0]
-    assert profile.controller.alpha == row['controller.alpha']
-    assert profile.controller.avoid == row['controller.avoid']
+    assert profile.controller.beeclust.alpha == row['controller.beeclust.alpha']
+    assert profile.controller.beeclust.avoid == row['controller.beeclust.avoid']
     assert profile.world.step_period == row['world.step_period']
     assert 'The best profile' in (out / 'calibration.md').read_text()
 
@@ -121,19 +121,19 @@ def test_another_seed_proposes_other_trials_and_a_folder_keeps_its_design(tmp_pa
     ({'sampler': 'tpe'}, 'unknown key calibrate.sampler'),
     ({'parameters': {'controller.nope': {'low': 1, 'high': 2}}},
      'calibrate.parameters.controller.nope: no parameter controller.nope'),
-    ({'parameters': {'controller.alpha': {'low': 5.0, 'high': 2.0}}},
-     'calibrate.parameters.controller.alpha: low 5.0 must be below high 2.0'),
-    ({'parameters': {'controller.alpha': {'low': 1.0, 'high': 1e9}}},
-     r'calibrate.parameters.controller.alpha: high 1000000000.0 is not allowed: '
-     r'controller.alpha = 1000000000.0 is out of range'),
-    ({'parameters': {'controller.avoid': {'low': 1, 'high': 2}}},
-     'calibrate.parameters.controller.avoid: controller.avoid is not a number'),
-    ({'parameters': {'controller.avoid': {'choices': ['turn-away', 'spin']}}},
-     "calibrate.parameters.controller.avoid: choice 'spin' is not allowed"),
+    ({'parameters': {'controller.beeclust.alpha': {'low': 5.0, 'high': 2.0}}},
+     'calibrate.parameters.controller.beeclust.alpha: low 5.0 must be below high 2.0'),
+    ({'parameters': {'controller.beeclust.alpha': {'low': 1.0, 'high': 1e9}}},
+     r'calibrate.parameters.controller.beeclust.alpha: high 1000000000.0 is not allowed: '
+     r'controller.beeclust.alpha = 1000000000.0 is out of range'),
+    ({'parameters': {'controller.beeclust.avoid': {'low': 1, 'high': 2}}},
+     'calibrate.parameters.controller.beeclust.avoid: controller.beeclust.avoid is not a number'),
+    ({'parameters': {'controller.beeclust.avoid': {'choices': ['turn-away', 'spin']}}},
+     "calibrate.parameters.controller.beeclust.avoid: choice 'spin' is not allowed"),
     ({'parameters': {'episode.population': {'low': 5, 'high': 9}}},
      'calibrate.parameters.episode.population: episode.population is set by the studies'),
-    ({'parameters': {'controller.alpha': {'low': 1.0, 'high': 4.0, 'step': 1}}},
-     'calibrate.parameters.controller.alpha: step is for whole-number parameters'),
+    ({'parameters': {'controller.beeclust.alpha': {'low': 1.0, 'high': 4.0, 'step': 1}}},
+     'calibrate.parameters.controller.beeclust.alpha: step is for whole-number parameters'),
     ({'trials': 0}, r'calibrate.trials = 0: expected a whole number >= 1'),
     ({'screen': {'speeds': [8]}}, r'calibrate.screen: study.speeds\[0\] = 8.0 is out of range'),
     ({'objective': {'ratio_target': -1}}, 'calibrate.objective.ratio_target = -1'),

@@ -198,8 +198,8 @@ def test_the_behaviour_measures_tell_a_fast_cleaner_from_a_fair_one_and_beeclust
     free = behaviour(net)  # the shipped evolved controller: cleans while driving fast
     assert free['cleaner_on'] > 0.9 and free['forward_speed'] > 0.08
     assert free['standing'] == 0.0
-    fair = behaviour(net.replace(controller={'network_max_speed': 0.08,
-                                             'network_clean_stops': True}))
+    fair = behaviour(net.replace(controller={'network': {'max_speed': 0.08,
+                                                         'clean_stops': True}}))
     assert fair['standing'] >= fair['cleaner_on'] > 0.9  # a cleaning robot stands
     assert fair['forward_speed'] < 0.01
     beeclust = behaviour(net.replace(controller={'kind': 'beeclust'}))

@@ -58,8 +58,8 @@ def test_bad_factors_name_the_key_and_the_problem():
 
 
 def test_levels_are_normalised_to_the_parameter_type():
-    config = load_config().replace(study={'factors': {'controller.alpha': [2, 0.5]}})
-    assert config.study.factors == (('controller.alpha', (2.0, 0.5)),)
+    config = load_config().replace(study={'factors': {'controller.beeclust.alpha': [2, 0.5]}})
+    assert config.study.factors == (('controller.beeclust.alpha', (2.0, 0.5)),)
     assert isinstance(config.study.factors[0][1][0], float)
 
 
@@ -156,8 +156,8 @@ def test_sweep_resumes_and_refuses_another_design(swept, tmp_path):
 @pytest.mark.parametrize('key, levels', [
     ('mona.ir_range', (0.015, 0.06)), ('mona.ir_count', (3, 7)),
     ('mona.ground_footprint', (0.03, 0.05)), ('mona.wheel_separation', (0.05, 0.08)),
-    ('controller.avoid', ('random-turn',)), ('world.cleaning', ('literal',)),
-    ('controller.turn_speed', (0.02, 0.08)), ('controller.alpha', (10.0,)),
+    ('controller.beeclust.avoid', ('random-turn',)), ('world.cleaning', ('literal',)),
+    ('controller.beeclust.turn_speed', (0.02, 0.08)), ('controller.beeclust.alpha', (10.0,)),
 ])
 def test_every_factor_level_is_reproducible_and_matters(key, levels):
     """Same seed, same run for each level; and the level changes the run."""

@@ -2,7 +2,7 @@
 ``controller.kind: network`` runs one controller process per Mona, each loading the same
 weights file, and the lockstep episode equals the embedded runner's bit for bit (N = 5,
 60 s), as for BEECLUST (tests/system/test_system.py); also with the fair match's limits
-(controller.network_max_speed, network_clean_stops) and the weights named relative to the
+(controller.network.max_speed, clean_stops) and the weights named relative to the
 parameter file (the launcher hands the nodes the resolved path)."""
 
 from __future__ import annotations
@@ -10,7 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mona_controller.network import genome_size, save_weights, weights_from_genome
+from mona_controller.controllers.network_weights import (
+    genome_size,
+    save_weights,
+    weights_from_genome,
+)
 from swarm_supervisor.config import load_config, write_ros_yaml
 from swarm_supervisor.engine.runner import run_episode
 
@@ -29,15 +33,15 @@ def test_network_controllers_as_nodes_equal_the_embedded_runner(tmp_path, fair):
     save_weights(weights, weights_from_genome(genome, ir_count, HIDDEN, True))
     config = load_config(CONFIG).replace(
         episode={'population': POPULATION, 'duration': DURATION, 'seed': SEED},
-        controller={'kind': 'network', 'network_hidden': HIDDEN, 'network_recurrent': True,
-                    'network_weights': str(weights),
-                    # fair: wheels capped at 8 cm/s, no wheels while cleaning
-                    'network_max_speed': 0.08 if fair else 0.0, 'network_clean_stops': fair})
+        controller={'kind': 'network', 'network': {
+            'hidden': HIDDEN, 'recurrent': True, 'weights': str(weights),
+            # fair: wheels capped at 8 cm/s, no wheels while cleaning
+            'max_speed': 0.08 if fair else 0.0, 'clean_stops': fair}})
     path = tmp_path / 'network.yaml'
     write_ros_yaml(config, path)
     if fair:  # also: the weights named relative to the parameter file, not to the cwd
         path.write_text(path.read_text().replace(str(weights), weights.name))
-        assert f'network_weights: {weights.name}' in path.read_text()
+        assert f'weights: {weights.name}' in path.read_text()
         assert load_config(path) == config
     run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--population', str(POPULATION),
                                       '--duration', str(DURATION), '--seed', str(SEED),

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mona_controller.controller import SwarmController
+from mona_controller.controllers.beeclust import SwarmController
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.batch import Batch, BatchError
 from swarm_supervisor.engine.episode import Episode
@@ -21,7 +21,8 @@ def mix() -> list[SwarmConfig]:
         base.replace(episode={'population': 10, 'seed': 1},
                      mona={'ground_noise': 4.0, 'ir_miss': 0.2, 'wheel_noise': 0.1}),
         base.replace(episode={'population': 20, 'seed': 2, 'duration': 22.0},
-                     controller={'alpha': 3.0, 'wait_max': 20.0, 'avoid': 'random-turn'}),
+                     controller={'beeclust': {'alpha': 3.0, 'wait_max': 20.0,
+                                              'avoid': 'random-turn'}}),
         base.replace(episode={'population': 20, 'seed': 7},
                      mona={'ir_range': 0.05, 'ground_footprint': 0.03}),
         base.replace(episode={'population': 8, 'seed': 5},
@@ -30,7 +31,7 @@ def mix() -> list[SwarmConfig]:
                            'robot_detection': 'position', 'ir_robot_factor': 0.5}),
         base.replace(episode={'population': 12, 'seed': 6},
                      world={'cleaning': 'blend', 'cell_size': 0.00390625},
-                     controller={'turn_at': 'full', 'wait_max': 5.0}),
+                     controller={'beeclust': {'turn_at': 'full', 'wait_max': 5.0}}),
     ]
 
 

@@ -3,7 +3,7 @@ wheels hold between; k = 1 is the engine as it always was, and a batch equals ea
 
 import numpy as np
 
-from mona_controller.controller import SwarmController
+from mona_controller.controllers.beeclust import SwarmController
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine import Episode, run_batch, run_episode
 

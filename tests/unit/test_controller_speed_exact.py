@@ -3,7 +3,7 @@
 SwarmController.step computes its robots' behaviour with lookup tables, one code per robot
 and Python for the few robots whose state changes; a merged controller steps the robots of
 several episodes, with different parameters, at once. Each robot must compute bit for bit
-what the reference (mona_controller.reference.Longhand) computes for it alone: wheels,
+what the reference (mona_controller.controllers.reference.Longhand) computes for it alone: wheels,
 cleaner, state, until, turn direction, encounters, and the same draws from its own generator;
 check_controller compares them all, every step, and names the first difference. (That a
 merged controller equals its parts stepped alone is tests/unit/test_controllers.py.)
@@ -15,18 +15,19 @@ import math
 import numpy as np
 import pytest
 
-from mona_controller.controller import (
+from mona_controller.controllers.beeclust import (
     AVOID,
     FOLLOW,
     TURN,
     WAIT,
-    ControllerParams,
+    BeeclustParams,
     SwarmController,
     gradient_wheels,
     waiting_time,
 )
+from mona_controller.controllers.params import ControllerParams
+from mona_controller.controllers.reference import check_controller
 from mona_controller.mona import MonaParams
-from mona_controller.reference import check_controller
 
 K = MonaParams().ir_count
 
@@ -36,15 +37,18 @@ WALLS = [(0, 4), (1, 3), (0, 1, 3, 4), (2,), (0, 2, 4), (0,), (4,), (0, 1), (3, 
 #: Parameter sets of the parts of a merged controller (each with its own robots).
 PARTS = [
     (ControllerParams(), MonaParams(), 3),
-    (ControllerParams(wait_max=1.0, avoid='random-turn'), MonaParams(), 2),
-    (ControllerParams(speed=0.04, alpha=3.0, wait_max=2.0, turn_min=0.5, turn_max=1.0),
-     MonaParams(ir_span=2.0), 4),
-    (ControllerParams(wait_max=0.5, wait_half_constant=900.0, turn_speed=0.1),
+    (ControllerParams.of(BeeclustParams(wait_max=1.0, avoid='random-turn')), MonaParams(), 2),
+    (ControllerParams.of(BeeclustParams(alpha=3.0, wait_max=2.0, turn_min=0.5, turn_max=1.0),
+                         speed=0.04), MonaParams(ir_span=2.0), 4),
+    (ControllerParams.of(BeeclustParams(wait_max=0.5, wait_half_constant=900.0,
+                                        turn_speed=0.1)),
      MonaParams(ir_span=3.0, max_wheel_command=7.0), 1),
-    (ControllerParams(speed=0.1, alpha=0.5, wait_max=3.0), MonaParams(ir_span=1.234), 5),
+    (ControllerParams.of(BeeclustParams(alpha=0.5, wait_max=3.0), speed=0.1),
+     MonaParams(ir_span=1.234), 5),
     # Turning in place at the robot's own speed, and at the wheels' top command.
-    (ControllerParams(speed=0.06, wait_max=2.0, turn_at='speed'), MonaParams(), 3),
-    (ControllerParams(wait_max=2.0, avoid='random-turn', turn_at='full'),
+    (ControllerParams.of(BeeclustParams(wait_max=2.0, turn_at='speed'), speed=0.06),
+     MonaParams(), 3),
+    (ControllerParams.of(BeeclustParams(wait_max=2.0, avoid='random-turn', turn_at='full')),
      MonaParams(max_wheel_command=8.0), 2),
 ]
 
@@ -78,8 +82,9 @@ def test_a_merged_controller_steps_each_robot_as_alone(seed):
 
 def test_a_wait_is_over_at_the_time_it_ends():
     # Waits of 0 s, and a clock that stands still: a wait is over when now >= until.
-    trace = check_controller(SwarmController(ControllerParams(wait_max=0.0), MonaParams(),
-                                             range(10)), period=0.0, steps=40)
+    params = ControllerParams.of(BeeclustParams(wait_max=0.0))
+    trace = check_controller(SwarmController(params, MonaParams(), range(10)), period=0.0,
+                             steps=40)
     assert (trace == TURN).any()
 
 
@@ -102,7 +107,7 @@ def test_a_difference_is_named_by_step_robot_and_field():
 def test_equal_parameter_sets_share_their_tables():
     params, mona = ControllerParams(), MonaParams()
     parts = [SwarmController(params, mona, range(3)) for _ in range(4)]
-    parts.append(SwarmController(dataclasses.replace(params, alpha=3.0), mona, range(2)))
+    parts.append(SwarmController(ControllerParams.of(BeeclustParams(alpha=3.0)), mona, range(2)))
     # Another IR range: another parameter set, but the tables do not depend on it.
     parts.append(SwarmController(params, dataclasses.replace(mona, ir_range=0.02), range(1)))
     merged = SwarmController.merge(parts)
@@ -115,7 +120,8 @@ def test_equal_parameter_sets_share_their_tables():
 
 
 def test_every_ground_pair_gives_eq_1_and_eq_2():
-    params, mona = ControllerParams(wait_max=17.0, alpha=1.5), MonaParams()
+    own, mona = BeeclustParams(wait_max=17.0, alpha=1.5), MonaParams()
+    params = ControllerParams.of(own)
     controller = SwarmController(params, mona, range(256))
     beta = params.speed / mona.wheel_unit_speed
     nothing = np.full((256, K), np.inf, dtype=np.float32)
@@ -127,11 +133,11 @@ def test_every_ground_pair_gives_eq_1_and_eq_2():
         controller.reset(0)
         command = controller.step(ground, nothing, is_robot, 0.0)  # all follow: eq. 2
         assert command.wheels.tobytes() == gradient_wheels(
-            ground, beta, params.alpha, mona.max_wheel_command).tobytes()
+            ground, beta, own.alpha, mona.max_wheel_command).tobytes()
         command = controller.step(ground, robot_ahead, is_robot, 3.0)  # all meet: eq. 1
         assert (controller.state == WAIT).all() and not command.wheels.any()
         assert controller.until.tolist() == [
-            3.0 + waiting_time(g.astype(np.float64).mean(), params) for g in ground]
+            3.0 + waiting_time(g.astype(np.float64).mean(), own) for g in ground]
 
 
 def test_walls_on_both_sides_turn_away_from_the_larger_bearings():
@@ -154,8 +160,8 @@ def test_walls_on_both_sides_turn_away_from_the_larger_bearings():
                                                   ('full', 8.0 * 0.04 / 3.0)])
 def test_a_turn_lasts_its_angle_over_the_rate_its_wheels_give(turn_at, wheel_speed):
     mona = MonaParams(max_wheel_command=8.0)
-    controller = SwarmController(ControllerParams(speed=0.06, wait_max=0.0, turn_at=turn_at),
-                                 mona, [0])
+    params = ControllerParams.of(BeeclustParams(wait_max=0.0, turn_at=turn_at), speed=0.06)
+    controller = SwarmController(params, mona, [0])
     ground = np.zeros((1, 2), dtype=np.uint8)
     near = np.full((1, K), np.inf, dtype=np.float32)
     near[0, 2] = 0.01

@@ -1,7 +1,9 @@
-"""The controller seam: the registry, and merge, for every registered controller kind.
+"""The controller seam: the registry, merge, states and parameter sections, for every
+registered controller kind.
 
-A new kind in CONTROLLERS gets these tests for free: it is built from its parameters, a
-merged controller has every attribute a lone one has, and stepping the merged controller
+A new kind in CONTROLLERS gets these tests for free: it is built from its parameters, it
+declares its states and reports only their codes, its parameters are a section of their own,
+a merged controller has every attribute a lone one has, and stepping the merged controller
 equals stepping each part alone (parts with different parameters and clocks).
 """
 
@@ -10,11 +12,23 @@ import dataclasses
 import numpy as np
 import pytest
 
-from mona_controller.controller import ControllerParams, SwarmController
-from mona_controller.controllers import CONTROLLERS, Controller, controller_class, make_controller
+from mona_controller.controllers import (
+    CONTROLLERS,
+    BeeclustParams,
+    Command,
+    Controller,
+    ControllerParams,
+    State,
+    SwarmController,
+    controller_class,
+    make_controller,
+    random_readings,
+    register_controller,
+    states_for,
+    states_of,
+)
 from mona_controller.mona import MonaParams
-from mona_controller.reference import random_readings
-from mona_controller.schema import ParameterError
+from mona_controller.schema import ParameterError, from_mapping, param, to_mapping, validate
 
 KINDS = sorted(CONTROLLERS)
 K = MonaParams().ir_count
@@ -22,12 +36,14 @@ K = MonaParams().ir_count
 #: The parts of a merged controller: parameters (of each kind), Mona, robots.
 PARTS = [
     (ControllerParams(), MonaParams(), 3),
-    (ControllerParams(wait_max=1.0, avoid='random-turn'), MonaParams(), 2),
-    (ControllerParams(speed=0.04, alpha=3.0, wait_max=2.0, turn_min=0.5, turn_max=1.0),
-     MonaParams(ir_span=2.0), 4),
-    (ControllerParams(wait_max=0.5, wait_half_constant=900.0, turn_speed=0.1),
+    (ControllerParams.of(BeeclustParams(wait_max=1.0, avoid='random-turn')), MonaParams(), 2),
+    (ControllerParams.of(BeeclustParams(alpha=3.0, wait_max=2.0, turn_min=0.5, turn_max=1.0),
+                         speed=0.04), MonaParams(ir_span=2.0), 4),
+    (ControllerParams.of(BeeclustParams(wait_max=0.5, wait_half_constant=900.0,
+                                        turn_speed=0.1)),
      MonaParams(ir_span=3.0, max_wheel_command=7.0), 1),
-    (ControllerParams(speed=0.1, alpha=0.5, wait_max=3.0), MonaParams(ir_span=1.234), 5),
+    (ControllerParams.of(BeeclustParams(alpha=0.5, wait_max=3.0), speed=0.1),
+     MonaParams(ir_span=1.234), 5),
 ]
 COUNTS = [n for _, _, n in PARTS]
 BOUNDS = np.cumsum([0, *COUNTS])
@@ -145,3 +161,92 @@ def test_a_per_robot_attribute_left_out_of_the_list_is_refused():
         SwarmController.merge([SwarmController(params, mona, range(2)), parts[0]])
     with pytest.raises(ValueError, match='at least one'):
         SwarmController.merge([])
+
+
+@pytest.mark.parametrize('kind', KINDS)
+def test_each_kind_declares_its_states_and_reports_only_their_codes(kind):
+    cls = controller_class(kind)
+    names = [state.name for state in cls.STATES]
+    assert names and len(set(names)) == len(names) <= 256
+    assert states_of(kind) == cls.STATES
+    controller = make_controller(ControllerParams(kind=kind), MonaParams(), range(20))
+    rng = np.random.default_rng(4)
+    seen = set()
+    for step in range(300):
+        controller.step(*random_readings(rng, 20, K), step * 0.25)
+        seen |= set(controller.state.tolist())
+    assert seen <= set(range(len(cls.STATES))) and len(seen) > 1, seen
+
+
+@pytest.mark.parametrize('kind', KINDS)
+def test_each_kinds_parameters_are_a_section_of_their_own(kind):
+    params = controller_class(kind).Params
+    if params is None:
+        return
+    assert dataclasses.is_dataclass(params) and params.__dataclass_params__.frozen
+    default = params()
+    assert getattr(ControllerParams(), kind) == default == ControllerParams().section(params)
+    built = from_mapping(ControllerParams, {kind: to_mapping(default)})
+    assert built == ControllerParams() and hash(built) == hash(ControllerParams())
+    first = dataclasses.fields(params)[0].name
+    with pytest.raises(ParameterError, match=f'controller.{kind}.{first}'):
+        from_mapping(ControllerParams, {kind: {first: [object()]}})
+
+
+def test_a_kind_registered_at_run_time_gets_its_section_from_then_on():
+    before = ControllerParams()
+    register_controller('turning', f'{__name__}:Turning')
+    try:
+        after = ControllerParams(kind='turning')
+        assert after.turning == TurningParams() and not hasattr(before, 'turning')
+        assert after.section(TurningParams).rate == 1.0
+        controller = make_controller(after, MonaParams(), range(3))
+        controller.step(np.zeros((3, 2), np.uint8), np.full((3, K), np.inf, np.float32),
+                        np.zeros((3, K), bool), 0.0)
+        assert controller.state.tolist() == [1, 1, 1]
+        assert states_for({'controller': {'kind': 'turning'}})[1].name == 'spinning'
+    finally:
+        del CONTROLLERS['turning']
+    with pytest.raises(KeyError, match="controller.kind 'turning' is not registered"):
+        states_of('turning')
+    with pytest.raises(ValueError, match='is already'):
+        register_controller('beeclust', f'{__name__}:Turning')
+
+
+@dataclasses.dataclass(frozen=True)
+class TurningParams:
+    """A kind's own section: one parameter."""
+
+    rate: float = param(1.0, low=0.0, high=2.0, doc='turn rate command')
+
+    def __post_init__(self):
+        validate(self, 'controller.turning.')
+
+
+class Turning(Controller):
+    """A kind with a parameter and two states of its own: it spins at its rate."""
+
+    Params = TurningParams
+    STATES = (State('resting', (0.5, 0.5, 0.5, 1.0)), State('spinning', (0.0, 0.0, 1.0, 1.0)))
+
+    def reset(self, seed):
+        self.state[:] = 0
+
+    def step(self, ground, ranges, is_robot, now):
+        rate = np.array([self.params[k].turning.rate for k in self.param_index])
+        self.state[:] = 1
+        return Command(np.stack([-rate, rate], axis=1), np.zeros(len(rate), dtype=bool))
+
+
+def test_the_modules_that_moved_keep_their_old_names_for_a_release():
+    with pytest.warns(DeprecationWarning, match='mona_controller.controller.FOLLOW moved to '
+                                                'mona_controller.controllers.beeclust.FOLLOW'):
+        from mona_controller.controller import FOLLOW
+    assert FOLLOW == 0
+    with pytest.warns(DeprecationWarning, match='controllers.params.ControllerParams'):
+        from mona_controller.controller import ControllerParams as Old
+    assert Old is ControllerParams
+    with pytest.warns(DeprecationWarning, match='controllers.network_weights.genome_size'):
+        from mona_controller.network import genome_size  # noqa: F401
+    with pytest.raises(ImportError, match='nothing'):
+        from mona_controller.reference import nothing  # noqa: F401

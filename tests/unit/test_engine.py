@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from mona_controller.controller import SwarmController
+from mona_controller.controllers.beeclust import SwarmController
 from mona_controller.mona import wheels_to_twist
 from swarm_metrics.metrics import sample
 from swarm_supervisor.config import SwarmConfig

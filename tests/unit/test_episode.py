@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from mona_controller.controller import WAIT
+from mona_controller.controllers.beeclust import WAIT
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
 from swarm_supervisor.engine.runner import run_episode

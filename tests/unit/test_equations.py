@@ -5,14 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from mona_controller.controller import ControllerParams, gradient_wheels, waiting_time
+from mona_controller.controllers.beeclust import BeeclustParams, gradient_wheels, waiting_time
+from mona_controller.controllers.params import ControllerParams
+from mona_controller.controllers.reference import Longhand
 from mona_controller.mona import MonaParams, wheels_to_twist
-from mona_controller.reference import Longhand
 from swarm_world.cue import clean, cleaning_kernel
 
 
 def test_eq1_waiting_time_uses_s_squared():
-    params = ControllerParams()
+    params = BeeclustParams()
     assert waiting_time(255.0, params) == pytest.approx(21.67, abs=0.005)
     assert waiting_time(0.0, params) == 0.0
     # S^2 = 25000 gives half of w_max: the S^2 reading of the erratum, not the printed S.
@@ -48,14 +49,15 @@ def test_eq2_speed_units():
 def test_the_reference_writes_eq1_and_eq2_out_to_the_bit():
     # Longhand's plain-Python formulas against the vectorised ones (which fill the
     # controller's tables), for every pair of ground bytes.
-    params, mona = ControllerParams(wait_max=17.0, alpha=1.5, speed=0.1), MonaParams()
+    own = BeeclustParams(wait_max=17.0, alpha=1.5)
+    params, mona = ControllerParams.of(own, speed=0.1), MonaParams()
     hand = Longhand(params, mona, robot_id=0, seed=0)
     pairs = [(left, right) for left in range(256) for right in range(256)]
     ground = np.array(pairs, dtype=np.uint8)
     assert np.array([hand.wait(*pair) for pair in pairs]).tobytes() == waiting_time(
-        ground.astype(np.float64).mean(axis=1), params).tobytes()
+        ground.astype(np.float64).mean(axis=1), own).tobytes()
     assert np.array([hand.follow(*pair) for pair in pairs]).tobytes() == gradient_wheels(
-        ground, hand.beta, params.alpha, mona.max_wheel_command).tobytes()
+        ground, hand.beta, own.alpha, mona.max_wheel_command).tobytes()
 
 
 def test_eq3_kernel_centre_and_corners():

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mona_controller.controllers import states_of
+from mona_controller.schema import ParameterError
 from swarm_supervisor.cli import command, main
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine import run_batch, run_episode
@@ -28,11 +30,40 @@ def test_a_controller_of_ones_own_runs_alone_and_in_a_batch():
     assert alone.metrics[-1]['mean_cue_fraction'] < 1.0  # it cleans
     beeclust = run_episode(base.replace(controller={'kind': 'beeclust'}))
     assert not np.array_equal(alone.final_poses, beeclust.final_poses)
-    # Merged with other episodes of its kind it computes what it computes alone.
-    other = base.replace(episode={'population': 7, 'seed': 8}, controller={'alpha': 5.0})
+    # Its own parameter changes what it does; merged with other episodes of its kind (other
+    # parameters of its own and of BEECLUST's) it computes what it computes alone.
+    other = base.replace(episode={'population': 7, 'seed': 8},
+                         controller={'solitary': {'clean_above': 60.0, 'cooldown': 2.0},
+                                     'beeclust': {'alpha': 5.0}})
+    assert other.controller.solitary.clean_above == 60.0
+    assert not np.array_equal(
+        run_episode(base.replace(controller={'solitary': {'clean_above': 60.0}})).final_poses,
+        alone.final_poses)
     batched = run_batch([base, other])
     assert batched[0].metrics == alone.metrics
     assert np.array_equal(batched[0].final_poses, alone.final_poses)
+
+
+def test_a_controller_of_ones_own_declares_its_parameters_and_states(tmp_path):
+    solitary_cleaner.register()
+    path = tmp_path / 'solitary.yaml'
+    path.write_text('/**:\n  ros__parameters:\n    controller:\n      kind: solitary\n'
+                    '      solitary: {clean_above: 80, cooldown: 5.0}\n')
+    config = load_config(path)
+    assert (config.controller.solitary.clean_above, config.controller.solitary.cooldown) == (
+        80.0, 5.0)
+    assert config.value('controller.solitary.cooldown') == 5.0
+    with pytest.raises(ParameterError, match='unknown parameter controller.solitary.gain; '
+                                             'known in controller.solitary.: clean_above, '
+                                             'cooldown'):
+        config.replace(controller={'solitary': {'gain': 1.0}})
+    with pytest.raises(ParameterError, match=r'controller.solitary.cooldown = -1.0 is out of '
+                                             r'range: allowed \[0, 3600\] s'):
+        config.with_values({'controller.solitary.cooldown': -1.0})
+    # Observers take the names and colours from the kind: the states it declares.
+    assert [state.name for state in states_of('solitary')] == ['roam', 'clean', 'dodge']
+    assert solitary_cleaner.SolitaryCleaner.STATES[solitary_cleaner.CLEAN].colour == (
+        0.90, 0.10, 0.10, 1.0)
 
 
 def test_an_unknown_kind_is_refused_naming_the_known_ones():
@@ -46,6 +77,7 @@ def test_the_controller_example_runs_as_a_script():
                           capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert done.returncode == 0, done.stderr
     assert 'beeclust:' in done.stdout and 'solitary:' in done.stdout
+    assert ' follow' in done.stdout and ' roam' in done.stdout  # each kind's own states
 
 
 def test_a_subcommand_of_ones_own(tmp_path, capsys, monkeypatch):

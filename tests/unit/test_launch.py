@@ -64,10 +64,10 @@ def test_a_bad_option_is_named(argv, option, capsys):
 
 def test_overrides_come_from_the_options_then_p():
     parsed = options('--population', '5', '--speed', '8', '--duration', '60', '--seed', '3',
-                     '-p', 'lockstep_deadline:=0.5', '-p', 'controller.alpha:=2.0')
+                     '-p', 'lockstep_deadline:=0.5', '-p', 'controller.beeclust.alpha:=2.0')
     assert launcher.run_overrides(parsed) == [
         'episode.population:=5', 'episode.duration:=60.0', 'episode.seed:=3',
-        'controller.speed:=0.08', 'lockstep_deadline:=0.5', 'controller.alpha:=2.0']
+        'controller.speed:=0.08', 'lockstep_deadline:=0.5', 'controller.beeclust.alpha:=2.0']
 
 
 def test_overrides_are_checked_with_the_schema():

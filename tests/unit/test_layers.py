@@ -5,8 +5,9 @@
 - swarm_supervisor's sub-packages are layered (:data:`SUPERVISOR_LAYERS`): a module imports
   only from its own sub-package and the layers below it; siblings of a layer never import each
   other, and nothing imports the CLI.
-- No import cycle inside a package, counting every import (also those inside functions), but
-  those under ``if TYPE_CHECKING:`` (annotations only).
+- No import cycle anywhere in src, counting every import (also those inside functions and
+  those under ``if TYPE_CHECKING:``, for annotations only: two modules that name each other
+  even there cannot be read apart).
 - The pure cores import no ROS: only the adapters (:data:`ADAPTERS`) and the CLI above them
   import rclpy or a message package, and no pure module imports an adapter.
 - No module uses another module's private name (``from x import _y``, ``x._y``).
@@ -72,13 +73,13 @@ def typing_only(tree: ast.Module) -> set[ast.AST]:
     return hidden
 
 
-def imports(name: str) -> Iterator[tuple[str, int]]:
-    """(imported module, line) of every import in module ``name`` (but those only for
-    annotations), resolved to a module or package of ours where it names one, else the
-    top-level name imported."""
+def imports(name: str, annotations: bool = False) -> Iterator[tuple[str, int]]:
+    """(imported module, line) of every import in module ``name`` (those only for
+    annotations too if ``annotations``), resolved to a module or package of ours where it
+    names one, else the top-level name imported."""
     tree = ast.parse(MODULES[name].read_text())
     package = name if MODULES[name].name == '__init__.py' else name.rpartition('.')[0]
-    hidden = typing_only(tree)
+    hidden = set() if annotations else typing_only(tree)
     for node in ast.walk(tree):
         if node in hidden:
             continue
@@ -102,11 +103,12 @@ def ours(module: str) -> str | None:
     return module or None
 
 
-def edges() -> dict[str, set[str]]:
-    """Module -> the modules of ours it imports."""
+def edges(annotations: bool = False) -> dict[str, set[str]]:
+    """Module -> the modules of ours it imports (also for annotations only, if
+    ``annotations``)."""
     graph = {}
     for name in MODULES:
-        graph[name] = {target for imported, _ in imports(name)
+        graph[name] = {target for imported, _ in imports(name, annotations)
                        if (target := ours(imported)) is not None and target != name}
     return graph
 
@@ -201,7 +203,7 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_no_import_cycle():
-    assert strongly_connected(edges()) == []
+    assert strongly_connected(edges(annotations=True)) == []
 
 
 def test_the_cycle_finder_finds_a_cycle():

@@ -3,7 +3,7 @@ the keys that differ (a driver's file that leaves keys at their defaults is the 
 
 from __future__ import annotations
 
-from mona_controller.controller import ControllerParams
+from mona_controller.controllers import ControllerParams
 from mona_controller.mona import MonaParams
 from mona_controller.schema import differences, flat_fields, to_mapping
 
@@ -23,9 +23,19 @@ def test_the_differing_keys_are_named_with_both_values():
                              'mona.ir_range: announced 0.05, here 0.03']
 
 
+def test_a_kinds_section_is_compared_key_by_key():
+    mine = ControllerParams()
+    assert differences(mine, {'kind': 'beeclust', 'beeclust': {}}, 'controller.') == []
+    assert differences(mine, {'beeclust': {'alpha': 3.0}, 'network': {'hidden': 4}},
+                       'controller.') == ['controller.beeclust.alpha: announced 3.0, here 2.0',
+                                          'controller.network.hidden: announced 4, here 8']
+
+
 def test_an_announcement_this_node_cannot_read_says_why():
     lines = differences(ControllerParams(), {'no_such_key': 1}, 'controller.')
     assert len(lines) == 1 and 'unknown parameter controller.no_such_key' in lines[0]
+    lines = differences(ControllerParams(), {'mine': {'gain': 1}}, 'controller.')
+    assert len(lines) == 1 and 'unknown parameter controller.mine' in lines[0]
 
 
 def test_flat_fields_still_lists_every_default():

@@ -2,7 +2,7 @@
 
 import pytest
 
-from mona_controller.controller import ControllerParams
+from mona_controller.controllers import ControllerParams, SwarmController
 from mona_controller.schema import ParameterError, flat_fields, from_mapping
 from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config, write_ros_yaml
 
@@ -24,9 +24,12 @@ def test_round_trip_through_yaml(tmp_path):
      'episode.population = -3 is out of range: allowed [0, 100000]'),
     ('episode', {'population': 2.5}, 'episode.population = 2.5: expected a whole number'),
     ('controller', {'speed': -0.01}, 'controller.speed = -0.01 is out of range'),
-    ('controller', {'alpha': 'two'}, 'controller.alpha'),
+    ('controller', {'beeclust': {'alpha': 'two'}}, 'controller.beeclust.alpha'),
     ('world', {'cleaning': 'scrub'}, "world.cleaning = 'scrub' is not allowed"),
-    ('controller', {'turn_min': 3.0, 'turn_max': 2.0}, 'controller.turn_min'),
+    ('controller', {'beeclust': {'turn_min': 3.0, 'turn_max': 2.0}},
+     'controller.beeclust.turn_min'),
+    ('controller', {'network': {'hidden': 0}}, 'controller.network.hidden = 0 is out of range'),
+    ('controller', {'beeclust': 2.0}, 'controller.beeclust must be a section'),
     ('mona', {'ir_count': True}, 'mona.ir_count'),
 ])
 def test_bad_values_name_the_key_and_range(section, values, fragment):
@@ -37,11 +40,12 @@ def test_bad_values_name_the_key_and_range(section, values, fragment):
 
 def test_unknown_key_is_rejected_with_the_known_ones(tmp_path):
     path = tmp_path / 'bad.yaml'
-    path.write_text('/**:\n  ros__parameters:\n    controller:\n      alpah: 3.0\n')
+    path.write_text('/**:\n  ros__parameters:\n    controller:\n      beeclust:\n'
+                    '        alpah: 3.0\n')
     with pytest.raises(ParameterError) as error:
         load_config(path)
     message = str(error.value)
-    assert 'unknown parameter controller.alpah' in message and 'alpha' in message
+    assert 'unknown parameter controller.beeclust.alpah' in message and 'alpha' in message
 
 
 def test_file_that_is_not_a_parameter_file(tmp_path):
@@ -54,7 +58,6 @@ def test_file_that_is_not_a_parameter_file(tmp_path):
 
 
 def test_speed_beyond_the_wheel_clamp_is_rejected():
-    from mona_controller.controller import SwarmController
     from mona_controller.mona import MonaParams
     with pytest.raises(ParameterError, match=r'controller.speed = 0.2 is out of range'):
         SwarmController(ControllerParams(speed=0.2), MonaParams(), [0])
@@ -62,9 +65,10 @@ def test_speed_beyond_the_wheel_clamp_is_rejected():
 
 def test_flat_fields_give_dotted_ros_names():
     names = {name for name, _, _ in flat_fields(SwarmConfig)}
-    assert {'episode.population', 'controller.alpha', 'world.arena_side',
+    assert {'episode.population', 'controller.kind', 'controller.speed',
+            'controller.beeclust.alpha', 'controller.network.hidden', 'world.arena_side',
             'study.populations'} <= names
-    assert from_mapping(ControllerParams, {'alpha': 3}).alpha == 3.0
+    assert from_mapping(ControllerParams, {'beeclust': {'alpha': 3}}).beeclust.alpha == 3.0
 
 
 def test_parameter_reference_matches_the_schema():

@@ -1,1 +1,12 @@
-"""The Mona controller: a pure core (schema, mona, controller) and its ROS node."""
+"""The Mona controller: a pure core (the parameter schema, the Mona, the controller kinds, the
+topic contract, the link to a real robot) and its ROS node."""
+
+from mona_controller.exports import moved_modules
+
+# Modules that moved: their old names forward to the new ones, for one release.
+moved_modules(__name__, {
+    'controller': ['controllers.params', 'controllers.beeclust', 'controllers.base'],
+    'network': ['controllers.network', 'controllers.network_weights',
+                'controllers.network_forward'],
+    'reference': ['controllers.reference'],
+})

@@ -14,6 +14,8 @@ import json
 import math
 from collections.abc import Iterable
 
+from mona_controller.controllers.base import State, states_for
+
 # The topic names and the table they belong to (re-exported: one import for the contract).
 from mona_controller.topics import (  # noqa: F401
     CLEANER,
@@ -203,6 +205,9 @@ class Announcement:
 
     ``poses`` and ``parameters`` stay plain lists and mappings: each reader checks the part it
     uses (the world its own sections, the analysis every section) with the schema.
+    ``states`` are the controller kind's behaviour states (name and colour, by code), so an
+    observer (the world's markers, the Foxglove layout, a bag's reader) shows the codes the
+    robots report without knowing the kind.
     """
 
     episode: int
@@ -213,6 +218,7 @@ class Announcement:
     start_ns: int = 0  #: sim time of the episode's t = 0
     poses: tuple[tuple[float, float, float], ...] = ()  #: [x, y, yaw] per robot, world frame
     parameters: dict = dataclasses.field(default_factory=dict)  #: every section
+    states: tuple[State, ...] = ()  #: the kind's states, by code
 
     @property
     def key(self) -> tuple[int, int, int]:
@@ -226,7 +232,9 @@ class Announcement:
         return json.dumps({'episode': self.episode, 'seed': self.seed,
                            'population': self.population, 'duration': self.duration,
                            'start_ns': self.start_ns, 'poses': [list(p) for p in self.poses],
-                           'parameters': self.parameters})
+                           'parameters': self.parameters,
+                           'states': [{'name': state.name, 'colour': list(state.colour)}
+                                      for state in self.states]})
 
     @classmethod
     def from_dict(cls, document: dict) -> Announcement:
@@ -248,7 +256,10 @@ class Announcement:
                                population=int(document['population']),
                                duration=float(document['duration']),
                                start_ns=int(document['start_ns']), poses=poses,
-                               parameters=parameters)
+                               parameters=parameters,
+                               states=tuple(State(str(state['name']),
+                                                  tuple(float(c) for c in state['colour']))
+                                            for state in document.get('states', ())))
         except KeyError as error:
             raise ContractError(f'the episode announcement has no {error.args[0]!r}') from None
         except (TypeError, ValueError, OverflowError) as error:
@@ -271,6 +282,15 @@ class Announcement:
             raise ContractError(f'the episode announcement is not JSON ({error}): '
                                 f'{text[:200]}') from None
         return cls.from_dict(document)
+
+    def robot_states(self) -> tuple[State, ...]:
+        """The states the robots report, by code: those announced, or (an announcement
+        without them) those of the kind its parameters name.
+
+        Raises:
+            KeyError: none announced, and the kind is not registered in this process.
+        """
+        return self.states or states_for(self.parameters)
 
     def problem(self) -> str:
         """What makes this episode unplayable ('' = nothing)."""

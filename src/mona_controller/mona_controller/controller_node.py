@@ -3,7 +3,7 @@
 A thin adapter: :mod:`~mona_controller.messages` converts the messages,
 :class:`~mona_controller.pairing.ReadingPairs` pairs the readings by stamp and answers repeats,
 the controller of one robot, of the kind ``controller.kind`` names (built by
-:func:`~mona_controller.controllers.make_controller`), computes new answers at
+:func:`~mona_controller.controllers.base.make_controller`), computes new answers at
 ``now = (stamp_ns - start_ns) / 1e9``, as the embedded runner does. Each ``/episode`` resets
 it from ``(seed, robot_id)``. ``--robots 0-9`` hosts several robots' nodes in one process.
 """
@@ -28,8 +28,8 @@ from std_msgs.msg import Bool, String, UInt8
 
 from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
-from mona_controller.controller import ControllerParams
-from mona_controller.controllers import Controller, make_controller
+from mona_controller.controllers.base import Controller, make_controller
+from mona_controller.controllers.params import ControllerParams
 from mona_controller.messages import (
     ReadingError,
     fill_twist,

@@ -8,11 +8,10 @@ Pure (no ROS): the lowest package holds it so that every node can use it (the la
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import textwrap
 from collections.abc import Mapping, Sequence
 
-from mona_controller.schema import spec_of
+from mona_controller.schema import flat_fields
 
 #: What every node's exit status means; a node adds its own (metrics: 3, the world was lost).
 STATUSES = {0: 'success (the run finished, or stopped by SIGINT / SIGTERM)',
@@ -46,13 +45,9 @@ def parameters_text(sections: Mapping[str, type]) -> str:
     ``-p name:=default  doc [unit]``."""
     lines = []
     for prefix, section in sections.items():
-        for field in dataclasses.fields(section):
-            spec = spec_of(field)
-            if spec is None:
-                continue
-            default = field.default if field.default is not dataclasses.MISSING else ''
+        for name, default, spec in flat_fields(section, prefix):
             unit = f' [{spec.unit}]' if spec.unit else ''
-            lines.append(f'  -p {prefix}{field.name}:={default!r}  {spec.doc}{unit}')
+            lines.append(f'  -p {name}:={default!r}  {spec.doc}{unit}')
     return '\n'.join(lines)
 
 

@@ -20,6 +20,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 
+from mona_controller.keys import renamed_keys
 from mona_controller.schema import ParameterError, Spec, flat_fields, from_mapping, unflatten
 
 T = TypeVar('T')
@@ -71,17 +72,22 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
         cls: a schema section (or a composition of sections such as the whole config).
         prefix: the dotted prefix of the section, e.g. ``'controller.'`` ('' for none).
 
+    A parameter given under a key the schema renamed (``controller.alpha``) is taken as the
+    new one (``controller.beeclust.alpha``), with a warning in the node's log.
+
     Raises:
-        ParameterError: an out-of-range, mistyped or unknown value, naming the parameter and
-            its allowed range.
+        ParameterError: an out-of-range, mistyped or unknown value, or a key given under both
+            its old and its new name, naming the parameter and its allowed range.
     """
     values, known = {}, set()
+    moved = _renamed_overrides(node, cls, prefix, known)
     for name, default, spec in flat_fields(cls, prefix):
         if spec.keyed:
             values[name[len(prefix):]] = _declare_keyed(node, name)
             known.update(f'{name}.{key}' for key in values[name[len(prefix):]])
             continue
-        ros_default = list(default) if isinstance(default, tuple) else default
+        ros_default = moved.get(name, default)
+        ros_default = list(ros_default) if isinstance(ros_default, tuple) else ros_default
         try:
             param = node.declare_parameter(name, ros_default, descriptor(name, default, spec))
         except ParameterException as error:
@@ -95,6 +101,25 @@ def declare_section(node: Node, cls: type[T], prefix: str = '') -> T:
     check_unknown(node, [prefix] if prefix else sorted({n.split('.')[0] + '.' for n in values}),
                   known)
     return from_mapping(cls, unflatten(values), prefix)
+
+
+def _renamed_overrides(node: Node, cls: type, prefix: str, known: set[str]) -> dict[str, Any]:
+    """The values given under renamed keys, by their new keys (each old key declared, added
+    to ``known`` and warned about in the log)."""
+    overrides = getattr(node, '_parameter_overrides', {})  # rclpy keeps them only privately
+    moved = {}
+    for old, new in renamed_keys(cls, prefix).items():
+        if old not in overrides:
+            continue
+        if new in overrides:
+            raise ParameterError(f'{old} and {new} are both given: give {new} only')
+        param = node.declare_parameter(old, descriptor=ParameterDescriptor(
+            name=old, read_only=True, dynamic_typing=True,
+            description=f'deprecated: use {new}'))
+        moved[new] = _plain(param.value)
+        known.add(old)
+        node.get_logger().warning(f'{old} is deprecated: use {new}')
+    return moved
 
 
 def _declare_keyed(node: Node, name: str) -> dict[str, Any]:

@@ -4,14 +4,21 @@ A parameter section is a frozen dataclass whose fields are made with :func:`para
 one validates every field (type and range) and names the offending key in the error, so a bad
 value fails at start-up in either runner. :func:`from_mapping` builds a section from a (nested)
 mapping and rejects unknown keys; :func:`flat_fields` lists the fields as dotted ROS parameter
-names for the nodes to declare.
+names for the nodes to declare (:mod:`mona_controller.keys` finds one by its dotted key).
+
+A section holds other sections as fields (``SwarmConfig.world``), or as a :func:`sections`
+field whose names are known only when it is built (one per registered controller kind:
+``controller.beeclust.alpha``). A section may list keys it renamed in a ``RENAMED`` class
+attribute (old name -> new dotted path below it): an old key still works, with a
+:class:`DeprecatedKeyWarning` naming the new one.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterator, Mapping
+import warnings
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, TypeVar
 
 T = TypeVar('T')
@@ -21,6 +28,11 @@ SCALAR_TYPES = (bool, int, float, str)
 
 class ParameterError(ValueError):
     """A parameter is unknown, of the wrong type, or outside its allowed range."""
+
+
+class DeprecatedKeyWarning(DeprecationWarning):
+    """A parameter given under a key that was renamed: it still works, for one release. The
+    commands and nodes show it (a plain DeprecationWarning is hidden by default)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,9 +74,44 @@ def param(default: Any, *, unit: str = '', doc: str, low: float | None = None,
     return dataclasses.field(default=default, metadata={'spec': spec})
 
 
+def sections(lookup: Callable[[], Mapping[str, type]], *, doc: str) -> Any:
+    """A field of named sections whose names are known only when the section is built:
+    ``lookup()`` gives each name's section class (e.g. one per registered controller kind).
+    Each sits under its own name in the mapping, beside the other fields
+    (``controller.beeclust.alpha``); one not given takes its defaults. Held as a tuple of
+    (name, section) pairs in ``lookup``'s order, so the section stays frozen and hashable.
+    """
+    return dataclasses.field(default=(), metadata={'sections': lookup, 'doc': doc})
+
+
 def spec_of(field: dataclasses.Field) -> Spec | None:
     """The :class:`Spec` of a field made with :func:`param` (None for a nested section)."""
     return field.metadata.get('spec')
+
+
+def named_sections(section: Any) -> dict[str, tuple[str, type]]:
+    """The :func:`sections` of a section (class or instance): name -> (its field, its
+    class)."""
+    found = {}
+    for field in dataclasses.fields(section):
+        lookup = field.metadata.get('sections')
+        if lookup is not None:
+            found.update({name: (field.name, cls) for name, cls in lookup().items()})
+    return found
+
+
+def _filled(name: str, given: Any, classes: Mapping[str, type]) -> tuple[tuple[str, Any], ...]:
+    """A :func:`sections` field's value: every name of ``classes`` in order, given or at its
+    defaults."""
+    given = dict(given)
+    unknown = sorted(set(given) - set(classes))
+    if unknown:
+        raise ParameterError(f'unknown section {name}.{unknown[0]}: known {", ".join(classes)}')
+    for key, value in given.items():
+        if type(value) is not classes[key]:
+            raise ParameterError(f'{name}.{key} must be a {classes[key].__name__}, not '
+                                 f'{type(value).__name__}')
+    return tuple((key, given[key] if key in given else cls()) for key, cls in classes.items())
 
 
 def _coerce_keyed(name: str, value: Any) -> tuple[tuple[str, tuple[Any, ...]], ...]:
@@ -139,6 +186,11 @@ def validate(section: Any, prefix: str = '') -> None:
         ParameterError: naming the dotted key, the value and the allowed range.
     """
     for field in dataclasses.fields(section):
+        lookup = field.metadata.get('sections')
+        if lookup is not None:
+            object.__setattr__(section, field.name, _filled(
+                prefix.rstrip('.') or type(section).__name__, getattr(section, field.name),
+                lookup()))
         spec = spec_of(field)
         if spec is None:
             continue
@@ -148,26 +200,36 @@ def validate(section: Any, prefix: str = '') -> None:
 
 
 def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = '') -> T:
-    """Build section ``cls`` from a nested mapping; missing keys take their defaults.
+    """Build section ``cls`` from a nested mapping; missing keys take their defaults. A key
+    the section renamed (``RENAMED``) is moved to its new place, with a
+    :class:`DeprecatedKeyWarning`.
 
     Raises:
-        ParameterError: for an unknown key (listing the known ones) or a bad value.
+        ParameterError: for an unknown key (listing the known ones), a bad value, or a key
+            given under both its old and its new name.
     """
-    mapping = dict(mapping or {})
-    known = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-    unknown = sorted(set(mapping) - set(known))
+    mapping = _renamed(cls, dict(mapping or {}), prefix)
+    known = {f.name: f for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+             if 'sections' not in f.metadata}
+    named = named_sections(cls)
+    unknown = sorted(set(mapping) - set(known) - set(named))
     if unknown:
         raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
-                             f'{prefix or "the top level"}: {", ".join(sorted(known))}')
-    values = {}
+                             f'{prefix or "the top level"}: '
+                             f'{", ".join(sorted({*known, *named}))}')
+    values: dict[str, Any] = {}
     for name, value in mapping.items():
+        if name in named:
+            held, section = named[name]
+            values.setdefault(held, []).append(
+                (name, from_mapping(section, _section(value, prefix + name), f'{prefix}{name}.')))
+            continue
         field = known[name]
         if spec_of(field) is None:
-            if not isinstance(value, Mapping):
-                raise ParameterError(f'{prefix}{name} must be a section (a mapping)')
             factory = field.default_factory
             assert callable(factory), f'{prefix}{name}: a section field needs a default_factory'
-            value = from_mapping(type(factory()), value, f'{prefix}{name}.')
+            value = from_mapping(type(factory()), _section(value, prefix + name),
+                                 f'{prefix}{name}.')
         values[name] = value
     try:
         return cls(**values)
@@ -177,13 +239,64 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         raise
 
 
+def merged(cls: type, base: Mapping[str, Any], changes: Mapping[str, Any],
+           prefix: str = '') -> dict[str, Any]:
+    """``base`` (a mapping of section ``cls``, as :func:`to_mapping` gives it) with
+    ``changes`` applied: a section in both is merged key by key, anything else replaced
+    (a mapping-valued parameter such as ``study.factors`` too); renamed keys are moved (with
+    a :class:`DeprecatedKeyWarning`)."""
+    out = dict(base)
+    named = named_sections(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    for key, value in _renamed(cls, dict(changes), prefix).items():
+        field = fields.get(key)
+        sub = named[key][1] if key in named else \
+            type(field.default_factory()) if field is not None and spec_of(field) is None \
+            and callable(field.default_factory) else None
+        if sub is not None and isinstance(value, Mapping):
+            below = out.get(key)
+            out[key] = merged(sub, below if isinstance(below, Mapping) else {}, value,
+                              f'{prefix}{key}.')
+        else:
+            out[key] = value
+    return out
+
+
+def _section(value: Any, name: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ParameterError(f'{name} must be a section (a mapping)')
+    return value
+
+
+def _renamed(cls: type, mapping: dict[str, Any], prefix: str) -> dict[str, Any]:
+    """``mapping`` with the keys ``cls.RENAMED`` lists moved to their new places (warned)."""
+    for old, new in getattr(cls, 'RENAMED', {}).items():
+        if old not in mapping:
+            continue
+        warnings.warn(f'{prefix}{old} is deprecated: use {prefix}{new}', DeprecatedKeyWarning,
+                      stacklevel=3)
+        value = mapping.pop(old)
+        *parents, last = new.split('.')
+        node = mapping
+        for part in parents:
+            node[part] = dict(_section(node.get(part, {}), prefix + part))
+            node = node[part]
+        if last in node:
+            raise ParameterError(f'{prefix}{old} and {prefix}{new} are both given: give '
+                                 f'{prefix}{new} only')
+        node[last] = value
+    return mapping
+
+
 def to_mapping(section: Any) -> dict[str, Any]:
     """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
     out: dict[str, Any] = {}
     for field in dataclasses.fields(section):
         value = getattr(section, field.name)
         spec = spec_of(field)
-        if spec is None:
+        if 'sections' in field.metadata:
+            out.update({name: to_mapping(held) for name, held in value})
+        elif spec is None:
             out[field.name] = to_mapping(value)
         elif spec.keyed:
             out[field.name] = {key: list(values) for key, values in value}
@@ -219,10 +332,14 @@ def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') ->
         theirs = from_mapping(type(section), announced, prefix)
     except ParameterError as error:
         return [f'the announced {prefix.rstrip(".") or "section"} is not valid here: {error}']
-    mine_flat = {name: value for name, value, _ in _leaves(section, prefix)}
-    theirs_flat = {name: value for name, value, _ in _leaves(theirs, prefix)}
-    return [f'{name}: announced {theirs_flat[name]!r}, here {value!r}'
-            for name, value in mine_flat.items() if theirs_flat[name] != value]
+    mine_flat, theirs_flat = leaves(section, prefix), leaves(theirs, prefix)
+    return [f'{name}: announced {theirs_flat.get(name)!r}, here {value!r}'
+            for name, value in mine_flat.items() if theirs_flat.get(name) != value]
+
+
+def leaves(section: Any, prefix: str = '') -> dict[str, Any]:
+    """Every parameter of a section (an instance) by its dotted key: its value."""
+    return {name: value for name, value, _ in _leaves(section, prefix)}
 
 
 def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
@@ -230,7 +347,10 @@ def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
     for field in dataclasses.fields(section):
         spec = spec_of(field)
         value = getattr(section, field.name)
-        if spec is None:
+        if 'sections' in field.metadata:
+            for name, held in value:
+                yield from _leaves(held, f'{prefix}{name}.')
+        elif spec is None:
             yield from _leaves(value, f'{prefix}{field.name}.')
         else:
             yield f'{prefix}{field.name}', value, spec

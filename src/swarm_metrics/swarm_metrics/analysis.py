@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from mona_controller.contract import Announcement, ContractError
+from mona_controller.controllers import State
 from mona_controller.mona import MonaParams
 from mona_controller.schema import from_mapping
 from swarm_metrics.bag_reader import BagError, EpisodeBag
@@ -34,6 +35,13 @@ class AnnouncementError(ValueError):
     """An /episode announcement that lacks a field or carries a bad parameter."""
 
 
+def _states(announced: Announcement) -> tuple[State, ...]:
+    try:
+        return announced.robot_states()
+    except KeyError:
+        return ()
+
+
 @dataclasses.dataclass(frozen=True)
 class EpisodeSetup:
     """What an episode announcement fixes: seed, start, initial poses and the parameters."""
@@ -48,6 +56,9 @@ class EpisodeSetup:
     mona: MonaParams
     metrics: MetricsParams
     parameters: dict  #: every section, as announced
+    #: the controller kind's states, by code: announced, or (an older announcement) the
+    #: kind's if it is registered here, else none
+    states: tuple[State, ...] = ()
 
     @classmethod
     def from_announcement(cls, announcement: dict) -> EpisodeSetup:
@@ -69,7 +80,7 @@ class EpisodeSetup:
                 world=from_mapping(WorldParams, parameters.get('world'), 'world.'),
                 mona=from_mapping(MonaParams, parameters.get('mona'), 'mona.'),
                 metrics=from_mapping(MetricsParams, parameters.get('metrics'), 'metrics.'),
-                parameters=parameters)
+                parameters=parameters, states=_states(announced))
         except ContractError as error:
             raise AnnouncementError(str(error)) from None
         except (TypeError, ValueError) as error:  # ParameterError included

@@ -38,8 +38,6 @@ from swarm_metrics.metrics import metric_names
 #: Every check, in the order they are reported.
 CHECKS = ('announcement', 'finished', 'samples', 'cue_maps', 'online_metrics', 'robot_states',
           'sources')
-#: The state codes a controller reports (mona_controller.controller: follow, avoid, wait, turn).
-STATE_CODES = 4
 #: world.cleaning modes whose cue the cleaning record rebuilds exactly (swarm_world.cue.clean).
 DETERMINISTIC_CLEANING = frozenset({'monotone', 'literal'})
 #: Where the sample checks look.
@@ -247,7 +245,7 @@ def check_online_metrics(max_diff: float | None,
 
 
 def check_states(states: Sequence[tuple[int, Any]], pose_times: Iterable[int],
-                 start_ns: int, population: int) -> list[Finding]:
+                 start_ns: int, population: int, codes: int) -> list[Finding]:
     """The ``robot_states`` check: t = 0 and every recorded pose time have a
     /world/robot_states with one known state code per robot.
 
@@ -256,6 +254,7 @@ def check_states(states: Sequence[tuple[int, Any]], pose_times: Iterable[int],
         pose_times: log times (ns) of the recorded poses.
         start_ns: sim time of t = 0.
         population: N.
+        codes: how many states the controller kind has (codes 0 .. codes - 1 are known).
     """
     by_time = dict(states)
     wanted = sorted({start_ns, *pose_times})
@@ -267,10 +266,10 @@ def check_states(states: Sequence[tuple[int, Any]], pose_times: Iterable[int],
                         f'{(missing[0] - start_ns) / 1e9:g} s')]
     for t in wanted:
         row = by_time[t]
-        if len(row) != population or (len(row) and int(max(row)) >= STATE_CODES):
+        if len(row) != population or (len(row) and int(max(row)) >= codes):
             return [Finding('robot_states', ROBOT_STATES,
                             f'the states at t = {(t - start_ns) / 1e9:g} s are {list(row)}: '
-                            f'expected {population} codes below {STATE_CODES}')]
+                            f'expected {population} codes below {codes}')]
     return []
 
 
@@ -327,7 +326,12 @@ def check_recomputation(bag: EpisodeBag, result: Recomputation) -> list[Finding]
     first_sample = (None if result.online_first_diff is None else
                     (result.online_first_diff[1], (result.online_first_diff[0] - start) / 1e9))
     findings += check_online_metrics(result.online_max_diff, first_sample)
-    findings += check_states(bag.states, (t for t, _ in bag.poses), start, setup.population)
+    if setup.states:
+        findings += check_states(bag.states, (t for t, _ in bag.poses), start,
+                                 setup.population, len(setup.states))
+    else:
+        findings.append(Finding('robot_states', ROBOT_STATES, 'the announcement names no '
+                                'states, and its controller kind is not registered here'))
     findings += check_sources(bag.sources, announced_sources(setup.world), start)
     return findings
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import json
 import struct
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -31,9 +32,6 @@ MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 #: Little-endian CDR's encapsulation header (what rclpy writes on this machine).
 CDR_LE = b'\x00\x01\x00\x00'
 WORLD_FRAME = 'world'
-#: RGBA per controller state: the colours of the robot markers and of the videos
-#: (:data:`swarm_world.arena_markers.STATE_COLOURS`, which the world node uses too).
-STATE_COLOURS = arena_markers.STATE_COLOURS
 #: The drawn height of a robot's cylinder marker (m).
 MARKER_HEIGHT = 0.05
 
@@ -231,9 +229,10 @@ def _marker_layout(body_radius: float) -> tuple[int, int, bytes]:
 
 
 def markers_cdr(poses: np.ndarray, states: np.ndarray | None, body_radius: float,
-                ns: int) -> bytes:
+                ns: int, *, palette: Sequence[Sequence[float]]) -> bytes:
     """visualization_msgs/MarkerArray: one cylinder per robot (ns 'robots', id = robot),
-    coloured by controller state (:data:`STATE_COLOURS`; without states, follow's colour)."""
+    coloured by controller state: RGBA ``palette[state]`` (the kind's states' colours; a
+    code beyond it takes the last; without states, the first)."""
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     n = len(poses)
     states = np.zeros(n, dtype=np.uint8) if states is None else np.asarray(states)
@@ -248,6 +247,6 @@ def markers_cdr(poses: np.ndarray, states: np.ndarray | None, body_radius: float
     for key, column in (('x', 0), ('y', 1)):
         out[:, offsets[key]:offsets[key] + 8] = \
             np.ascontiguousarray(poses[:, column], dtype='<f8')[:, None].view(np.uint8)
-    colours = np.asarray(STATE_COLOURS, dtype='<f4')[np.minimum(states, len(STATE_COLOURS) - 1)]
+    colours = np.asarray(palette, dtype='<f4')[np.minimum(states, len(palette) - 1)]
     out[:, offsets['rgba']:offsets['rgba'] + 16] = np.ascontiguousarray(colours).view(np.uint8)
     return CDR_LE + struct.pack('<I', n) + out.tobytes()[:n * size - pad if n else 0]

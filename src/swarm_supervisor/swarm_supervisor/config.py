@@ -14,14 +14,26 @@ from __future__ import annotations
 import dataclasses
 import os
 import sys
+import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from mona_controller.controller import ControllerParams
+from mona_controller.controllers.params import ControllerParams
+from mona_controller.keys import leaf, renamed_keys
 from mona_controller.mona import MonaParams
-from mona_controller.schema import ParameterError, from_mapping, param, to_mapping, validate
+from mona_controller.schema import (
+    DeprecatedKeyWarning,
+    ParameterError,
+    from_mapping,
+    merged,
+    param,
+    to_mapping,
+    unflatten,
+    validate,
+)
 from swarm_metrics.metrics import MetricsParams
 from swarm_world.params import WorldParams
 from swarm_world.timing import steps_for
@@ -125,33 +137,33 @@ class SwarmConfig:
                 self.study, factors=self._checked_factors()))
 
     def _checked_factors(self) -> tuple[tuple[str, tuple[Any, ...]], ...]:
-        """The study's factors with each key checked against the schema and each level
-        validated (and normalised, e.g. 2 -> 2.0) as that parameter's value."""
+        """The study's factors with each key checked against the schema (a renamed key
+        replaced by its new one) and each level validated (and normalised, e.g. 2 -> 2.0)
+        as that parameter's value."""
         checked = []
-        for key, levels in self.study.factors:
-            where = f'study.factors.{key}'
+        plain = dataclasses.replace(self, study=dataclasses.replace(self.study, factors=()))
+        for given, levels in self.study.factors:
+            where = f'study.factors.{given}'
+            try:
+                key = leaf(self, given)[0]
+            except ParameterError:
+                key = ''
             if key in DESIGN_KEYS:
                 raise ParameterError(f'{where}: {key} is set by the design; use '
                                      f'{DESIGN_KEYS[key]}')
-            section_name, _, name = key.partition('.')
-            section = getattr(self, section_name, None) if section_name != 'study' else None
-            fields = {f.name for f in dataclasses.fields(section)} if \
-                dataclasses.is_dataclass(section) else set()
-            if name not in fields:
-                raise ParameterError(f'{where}: no parameter {key} (a factor is a dotted key '
+            if not key or key.startswith('study.'):
+                raise ParameterError(f'{where}: no parameter {given} (a factor is a dotted key '
                                      'of the episode, mona, world, controller or metrics '
                                      'section)')
             if len(set(levels)) != len(levels):
                 raise ParameterError(f'{where} = {list(levels)!r} repeats a level')
-            values = to_mapping(section)
             normalised = []
             for level in levels:
                 try:
-                    built = from_mapping(type(section), {**values, name: level},
-                                         f'{section_name}.')
+                    built = plain.with_values({key: level})
                 except ParameterError as error:
                     raise ParameterError(f'{where}: {error}') from None
-                normalised.append(getattr(built, name))
+                normalised.append(built.value(key))
             checked.append((key, tuple(normalised)))
         return tuple(checked)
 
@@ -160,17 +172,58 @@ class SwarmConfig:
         return to_mapping(self)
 
     def replace(self, **sections: dict[str, Any]) -> SwarmConfig:
-        """A copy with some fields changed, e.g. ``replace(episode={'seed': 3})``; validated."""
-        merged = self.to_dict()
-        for name, values in sections.items():
-            if name not in merged:
-                raise ParameterError(f'unknown parameter section {name}')
-            merged[name].update(values)
-        return from_mapping(SwarmConfig, merged)
+        """A copy with some fields changed, e.g. ``replace(episode={'seed': 3})`` or
+        ``replace(controller={'beeclust': {'alpha': 3.0}})`` (nested sections are merged, not
+        replaced); validated."""
+        unknown = sorted(set(sections) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            raise ParameterError(f'unknown parameter section {unknown[0]}')
+        return from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), sections))
+
+    def with_values(self, values: Mapping[str, Any]) -> SwarmConfig:
+        """A copy with the parameters ``values`` (dotted key -> value, e.g.
+        ``{'controller.beeclust.alpha': 3.0}``) set; validated.
+
+        Raises:
+            ParameterError: a key that names no parameter, or a bad value.
+        """
+        flat = {leaf(self, key)[0]: value for key, value in values.items()}
+        return from_mapping(SwarmConfig, merged(SwarmConfig, self.to_dict(), unflatten(flat)))
+
+    def value(self, key: str) -> Any:
+        """The value of the parameter ``key`` (dotted, e.g. ``controller.beeclust.alpha``).
+
+        Raises:
+            ParameterError: no parameter has this key.
+        """
+        return leaf(self, key)[1]
 
     def steps(self) -> int:
         """Steps in one episode (the duration rounded up to whole steps)."""
         return steps_for(self.episode.duration, self.world.step_ns)
+
+
+def current_keys(parameters: Mapping[str, Any]) -> dict[str, Any]:
+    """A record's parameters (``SwarmConfig.to_dict`` form, e.g. an episode.json's) with
+    the keys an older version wrote under a name since renamed moved to their current places
+    (silently: the record is not the user's to change)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', DeprecatedKeyWarning)
+        try:
+            return merged(SwarmConfig, {}, parameters)
+        except ParameterError:
+            return dict(parameters)
+
+
+def mapping_value(parameters: Mapping[str, Any], key: str, default: Any = None) -> Any:
+    """The value of the dotted ``key`` in a nested mapping of parameters (``default`` where
+    it has none)."""
+    value: Any = parameters
+    for part in key.split('.'):
+        if not isinstance(value, Mapping) or part not in value:
+            return default
+        value = value[part]
+    return value
 
 
 #: The shape of a parameter file, for the message about a file of another shape.
@@ -226,24 +279,29 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration') -> Sw
 
 #: Parameters naming a file that a relative path names relative to the parameter file
 #: holding it (not the current directory).
-FILE_RELATIVE = (('controller', 'network_weights'), ('world', 'cue_file'))
+FILE_RELATIVE = ('controller.network.weights', 'controller.stand_net.weights',
+                 'world.cue_file')
 
 
 def file_relative_values(document: Any, folder: Path) -> dict[str, str]:
     """Each :data:`FILE_RELATIVE` parameter that ``document`` (a parsed parameter file in
-    ``folder``) gives as a relative path, made absolute against ``folder``: dotted key ->
-    path (a ``~`` path, an absolute one, an empty one or a malformed file is left alone)."""
+    ``folder``) gives as a relative path, made absolute against ``folder``: dotted key as the
+    file gives it (also a renamed one) -> path (a ``~`` path, an absolute one, an empty one
+    or a malformed file is left alone)."""
     try:
         parameters = document['/**']['ros__parameters']
     except (TypeError, KeyError):
         return {}
+    renamed = renamed_keys(SwarmConfig)
     found = {}
-    for section, key in FILE_RELATIVE:
-        value = parameters.get(section, {}).get(key) if isinstance(parameters, dict) and \
-            isinstance(parameters.get(section), dict) else None
-        if isinstance(value, str) and value and not value.startswith('~') and \
-                not os.path.isabs(value):
-            found[f'{section}.{key}'] = os.path.normpath(folder.resolve() / value)
+    for key in FILE_RELATIVE:
+        for name in (key, *(old for old, new in renamed.items() if new == key)):
+            value: Any = parameters
+            for part in name.split('.'):
+                value = value.get(part) if isinstance(value, dict) else None
+            if isinstance(value, str) and value and not value.startswith('~') and \
+                    not os.path.isabs(value):
+                found[name] = os.path.normpath(folder.resolve() / value)
     return found
 
 
@@ -274,8 +332,11 @@ def load_config(path: str | Path | None = None) -> SwarmConfig:
     except yaml.YAMLError as error:
         raise ParameterError(f'{path} is not valid YAML: {error}') from None
     for name, value in file_relative_values(document, path.parent).items():
-        section, _, key = name.partition('.')
-        document['/**']['ros__parameters'][section][key] = value
+        *sections, key = name.split('.')
+        node = document['/**']['ros__parameters']
+        for section in sections:
+            node = node[section]
+        node[key] = value
     return config_from_ros_yaml(document, str(path))
 
 

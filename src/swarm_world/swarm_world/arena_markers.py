@@ -50,12 +50,6 @@ SOURCES_NAMESPACE = 'sources'
 SOURCE_SIZE = 0.08
 #: RGBA of every source marker.
 SOURCE_COLOUR = (0.85, 0.0, 0.85, 1.0)
-#: RGBA per controller state (FOLLOW, AVOID, WAIT, TURN of mona_controller.controller): the
-#: robot markers' colours in both runners (/world/markers) and the videos'.
-STATE_COLOURS = ((0.20, 0.75, 0.25, 1.0),  # follow: green
-                 (1.00, 0.60, 0.00, 1.0),  # avoid: orange
-                 (0.90, 0.10, 0.10, 1.0),  # wait (and clean): red
-                 (0.25, 0.45, 1.00, 1.0))  # turn: blue
 
 Point = tuple[float, float, float]
 

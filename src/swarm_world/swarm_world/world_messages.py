@@ -6,6 +6,7 @@ grid, robot, obstacle and source markers, the robots' states. The per-robot mess
 from __future__ import annotations
 
 import array
+from collections.abc import Sequence
 
 import numpy as np
 from geometry_msgs.msg import Point, Pose, PoseArray
@@ -95,14 +96,15 @@ def cue_grid(cue: np.ndarray, cell_size: float, stamp_ns: int) -> OccupancyGrid:
 
 
 def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
-                  stamp_ns: int) -> MarkerArray:
-    """One cylinder per robot (ns 'robots', id = robot), coloured by its controller state
-    (:data:`swarm_world.arena_markers.STATE_COLOURS`: follow green, avoid orange, wait and
-    clean red, turn blue), as the embedded runner's :func:`swarm_metrics.world_cdr.markers_cdr`."""
+                  stamp_ns: int, *, palette: Sequence[Sequence[float]]) -> MarkerArray:
+    """One cylinder per robot (ns 'robots', id = robot), coloured by its controller state:
+    RGBA ``palette[state]`` (the kind's states' colours, e.g. BEECLUST's follow green, avoid
+    orange, wait and clean red, turn blue), as the embedded runner's
+    :func:`swarm_metrics.world_cdr.markers_cdr`."""
     out = MarkerArray()
     stamp = ns_to_stamp(stamp_ns)
-    palette = [ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in arena_markers.STATE_COLOURS]
-    last = len(palette) - 1
+    colours = [ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in palette]
+    last = len(colours) - 1
     for k, (x, y, _) in enumerate(poses.tolist()):
         marker = Marker(ns='robots', id=k, type=Marker.CYLINDER, action=Marker.ADD)
         marker.header.frame_id = WORLD_FRAME
@@ -112,7 +114,7 @@ def robot_markers(poses: np.ndarray, states: np.ndarray, body_radius: float,
         marker.pose.orientation.w = 1.0
         marker.scale.x = marker.scale.y = 2 * body_radius
         marker.scale.z = MARKER_HEIGHT
-        marker.color = palette[min(int(states[k]), last) if k < len(states) else 0]
+        marker.color = colours[min(int(states[k]), last) if k < len(states) else 0]
         out.markers.append(marker)
     return out
 

@@ -183,6 +183,8 @@ class WorldNode(Node):
         #: Each robot's controller state after its latest answer (0 before its first: every
         #: controller kind starts an episode there, docs/interfaces.md).
         self.states = np.zeros(0, dtype=np.uint8)
+        #: The colours of the controller kind's states (the announced ones), by code.
+        self.palette: tuple[tuple[float, ...], ...] = ()
         self.connect_timer = None
         self.step_timer = None  # lockstep: the deadline; realtime: the step period
         self.resend_timer = None  # lockstep, step 0 only
@@ -226,6 +228,7 @@ class WorldNode(Node):
                                  self.params.step_ns * self.params.control_steps)
         self.cleaning_events = 0
         self.states = np.zeros(population, dtype=np.uint8)
+        self.palette = tuple(state.colour for state in announcement.robot_states())
         while len(self.links) < population:
             self.links.append(RobotLink(self, len(self.links), self.mona, self.on_state,
                                         self.on_cleaner, self.on_cmd))
@@ -246,6 +249,10 @@ class WorldNode(Node):
         if announcement.start_ns < self.time_ns:
             return (f'start_ns {announcement.start_ns} is before the world time '
                     f'{self.time_ns}: sim time must not run backwards')
+        try:
+            announcement.robot_states()  # what the robots' markers are coloured by
+        except KeyError as error:
+            return f'no controller states announced, and {error.args[0]}'
         for section, mine in (('world', self.params), ('mona', self.mona)):
             theirs = announcement.parameters.get(section)
             # As parameters (defaults applied), naming the keys that differ.
@@ -542,7 +549,8 @@ class WorldNode(Node):
             field.names, field.source_positions(self.world.time_ns / 1e9), self.time_ns))
         self.grid_pub.publish(cue_grid(self.world.cue, self.params.cell_size, self.time_ns))
         self.markers_pub.publish(robot_markers(self.world.poses, self.states,
-                                               self.mona.body_radius, self.time_ns))
+                                               self.mona.body_radius, self.time_ns,
+                                               palette=self.palette))
         if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
             self._publish_poses()
 

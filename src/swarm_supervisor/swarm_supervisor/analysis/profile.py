@@ -13,7 +13,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config
+from swarm_supervisor.config import (
+    DEFAULT_CONFIG,
+    SwarmConfig,
+    current_keys,
+    load_config,
+    mapping_value,
+)
 
 #: The parameters of the sensing and encounter chain, by dotted key.
 MODEL_CHAIN: tuple[str, ...] = (
@@ -22,7 +28,7 @@ MODEL_CHAIN: tuple[str, ...] = (
     'mona.ground_baseline', 'mona.ground_offset', 'mona.ground_footprint', 'mona.ground_noise',
     'mona.ir_count', 'mona.ir_span', 'mona.ir_range', 'mona.ir_robot_factor',
     'mona.robot_detection', 'mona.wall_margin', 'mona.command_latency', 'world.cell_size',
-    'world.cleaning', 'world.control_steps', 'controller.turn_at',
+    'world.cleaning', 'world.control_steps', 'controller.beeclust.turn_at',
 )
 #: The shipped profiles (in the source tree).
 PROFILES_DIR = DEFAULT_CONFIG.parent / 'profiles'
@@ -32,14 +38,9 @@ def chain_of(parameters: Mapping[str, Any]) -> dict[str, str]:
     """The chain's values in a record's ``parameters`` (``SwarmConfig.to_dict`` form), each as
     JSON so that lists and numbers compare exactly; a key the record lacks is its default."""
     defaults = SwarmConfig().to_dict()
-    values = {}
-    for key in MODEL_CHAIN:
-        section, name = key.split('.')
-        fields = parameters.get(section, {})
-        value = fields[name] if isinstance(fields, Mapping) and name in fields else \
-            defaults[section][name]
-        values[key] = json.dumps(value)
-    return values
+    parameters = current_keys(parameters)
+    return {key: json.dumps(mapping_value(parameters, key, mapping_value(defaults, key)))
+            for key in MODEL_CHAIN}
 
 
 def shipped_profiles(folder: Path = PROFILES_DIR) -> dict[str, dict[str, str]]:

@@ -38,7 +38,8 @@ from typing import Any
 
 import yaml
 
-from mona_controller.schema import ParameterError, from_mapping, spec_of, to_mapping
+from mona_controller.keys import leaf
+from mona_controller.schema import ParameterError, from_mapping, to_mapping
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
 
 #: The keys of the ``calibrate`` mapping.
@@ -97,12 +98,7 @@ class CalibrationDesign:
 
     def trial_config(self, values: Mapping[str, Any], study: StudyParams) -> SwarmConfig:
         """The configuration of a trial: the base config with ``values`` set, on ``study``."""
-        sections: dict[str, dict[str, Any]] = {}
-        for key, value in values.items():
-            section, _, name = key.partition('.')
-            sections.setdefault(section, {})[name] = value
-        sections['study'] = to_mapping(study)
-        return self.config.replace(**sections)
+        return self.config.replace(study=to_mapping(study)).with_values(values)
 
 
 def _where(*parts: str) -> str:
@@ -134,29 +130,23 @@ def _study(base: StudyParams, values: Any, where: str) -> StudyParams:
 def _range(key: str, text: Any, config: SwarmConfig) -> Range:
     """One parameter's range, checked against the schema (its type and allowed values)."""
     where = _where('parameters', key)
+    try:
+        key, current, spec = leaf(config, key)
+    except ParameterError:
+        raise CalibrationError(f'{where}: no parameter {key} (a searched parameter is a dotted '
+                               'key of the episode, mona, world, controller or metrics '
+                               'section)') from None
     if key in DESIGN_KEYS or key.startswith('study.'):
         raise CalibrationError(f'{where}: {key} is set by the studies of the design, not '
                                'searched')
-    section_name, _, name = key.partition('.')
-    section = getattr(config, section_name, None)
-    fields = {f.name: f for f in dataclasses.fields(section)} if \
-        dataclasses.is_dataclass(section) else {}
-    if name not in fields or spec_of(fields[name]) is None:
-        raise CalibrationError(f'{where}: no parameter {key} (a searched parameter is a dotted '
-                               'key of the episode, mona, world, controller or metrics '
-                               'section)')
-    spec = spec_of(fields[name])
-    current = getattr(section, name)
     text = _mapping(text, where)
 
     def legal(value: Any, label: str) -> Any:
         try:
-            built = from_mapping(type(section), {**to_mapping(section), name: value},
-                                 f'{section_name}.')
+            return config.with_values({key: value}).value(key)
         except ParameterError as error:
             raise CalibrationError(f'{where}: {label} {value!r} is not allowed: {error}') \
                 from None
-        return getattr(built, name)
 
     if 'choices' in text:
         unknown = sorted(set(text) - {'choices'})

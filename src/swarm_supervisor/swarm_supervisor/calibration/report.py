@@ -7,11 +7,11 @@ import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 import yaml
 
+from mona_controller.schema import unflatten
 from swarm_supervisor import study
 from swarm_supervisor.analysis.claims import Claim
 from swarm_supervisor.analysis.report import analyse, markdown_table
@@ -58,10 +58,7 @@ def trials_table(results: Sequence[TrialResult]) -> pd.DataFrame:
 
 def profile_text(design: CalibrationDesign, best: TrialResult, where: str) -> str:
     """A parameter file setting the best trial's values (every other parameter as the base)."""
-    sections: dict[str, dict[str, Any]] = {}
-    for key, value in best.values.items():
-        section, _, name = key.partition('.')
-        sections.setdefault(section, {})[name] = value
+    sections = unflatten(best.values)
     held = len(best.score.held)
     header = (f'# Calibrated by `mona-swarm calibrate {design.path}` (trial {best.number}, '
               f'{where}):\n# {held} of {held + len(best.score.failed)} claims hold, '

@@ -12,8 +12,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
-from mona_controller.schema import ParameterError
+from mona_controller.schema import DeprecatedKeyWarning, ParameterError
 from swarm_supervisor import __version__, exits
 from swarm_supervisor.outputs.guard import RecordExists
 from swarm_world.placement import PlacementError
@@ -45,9 +46,25 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+_SHOW = warnings.showwarning
+
+
+def _show(message, category, filename, lineno, file=None, line=None) -> None:
+    """A renamed parameter key still in use as one line; any other warning as Python shows
+    it."""
+    if issubclass(category, DeprecatedKeyWarning):
+        print(f'mona-swarm: warning: {message}', file=sys.stderr)
+    else:
+        _SHOW(message, category, filename, lineno, file, line)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
     argv = sys.argv[1:] if argv is None else argv
+    # A renamed key is worth a line to the user (Python hides a DeprecationWarning from the
+    # user of a command by default): once per key.
+    warnings.simplefilter('default', DeprecatedKeyWarning)
+    warnings.showwarning = _show
     parser = build_parser(argv[0] if argv else None)
     args = parser.parse_args(argv)
     try:

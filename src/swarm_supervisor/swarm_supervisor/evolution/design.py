@@ -26,12 +26,12 @@ A design is a YAML file with one mapping, ``evolve``::
                                    # 0), or drives (the kind's start: a net that drives,
                                    # evolution.genomes)
       kind: network                # the controller kind evolved (evolution.genomes)
-      hidden: 8                    # the net: hidden neurons (controller.network_hidden)
-      recurrent: false             # an Elman net (controller.network_recurrent)
-      max_speed: 0.0               # m/s, the net's top wheel speed (controller.
-                                   # network_max_speed; 0: the Mona's top command)
-      clean_stops: false           # the net cleans only standing (controller.
-                                   # network_clean_stops); with max_speed, the fair match
+      hidden: 8                    # the net: hidden neurons (controller.<kind>.hidden)
+      recurrent: false             # network: an Elman net (controller.network.recurrent)
+      max_speed: 0.0               # m/s, the net's top wheel speed (controller.<kind>.
+                                   # max_speed; 0: the Mona's top command)
+      clean_stops: false           # network: it cleans only standing (controller.network.
+                                   # clean_stops); with max_speed, the fair match
       batch: 32                    # at most this many episodes stepped together per worker
       validation: 0                # seeds of the fixed validation set (0: none); then
                                    # best.npz is the optimiser's mean with the best
@@ -62,7 +62,7 @@ from typing import Any
 
 import yaml
 
-from mona_controller.network import MAX_HIDDEN
+from mona_controller.controllers.network_weights import MAX_HIDDEN
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.evolution.genomes import ARCHITECTURES, architecture

@@ -4,13 +4,13 @@ An :class:`Architecture` says how long a kind's genome is, how a genome becomes 
 of its weights file, which ``controller`` keys run those weights with the design's limits,
 and the genome a search starts from (``evolve.start``: all zero, or one that drives).
 
-- ``network`` (:mod:`mona_controller.network`): the first net, kept as an ablation. Its
+- ``network`` (:mod:`mona_controller.controllers.network`): the first net, kept as an ablation. Its
   ``drives`` start sets both wheel outputs' biases to 1 (softsign 0.5: half the top speed,
   straight ahead) and everything else to 0, so the cleaner output is 0 (off).
-- ``stand_net`` (:mod:`mona_controller.stand_net`): the net that decides its stands at the
-  cleaning ticks. Its ``drives`` start: both wheel biases 1 (half the top speed, straight
-  ahead) and the stand's logit bias -1 (it stands for a period with probability 1/4),
-  everything else 0: a swarm that drives and cleans here and there from generation 0.
+- ``stand_net`` (:mod:`mona_controller.controllers.stand_net`): the net that decides its
+  stands at the cleaning ticks. Its ``drives`` start: both wheel biases 1 (half the top
+  speed, straight ahead) and the stand's logit bias -1 (it stands for a period with
+  probability 1/4), everything else 0: a swarm that drives from generation 0.
 """
 
 from __future__ import annotations
@@ -18,14 +18,17 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from mona_controller import network, stand_net
+from mona_controller.controllers import network_weights as network
+from mona_controller.controllers import stand_net
 
-if TYPE_CHECKING:
-    from swarm_supervisor.evolution.design import Design
+#: A :class:`swarm_supervisor.evolution.design.Design` (which imports this module, so it is
+#: not imported here): the architectures read its base, kind, start, hidden, recurrent,
+#: max_speed, clean_stops and genome_size.
+Design = Any
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,10 +51,10 @@ def _network_weights(design: Design, genome: np.ndarray) -> dict[str, np.ndarray
 
 
 def _network_section(design: Design, weights: str) -> dict[str, Any]:
-    return {'kind': 'network', 'network_hidden': design.hidden,
-            'network_recurrent': design.recurrent, 'network_weights': weights,
-            'network_weights_sha256': '', 'network_max_speed': design.max_speed,
-            'network_clean_stops': design.clean_stops}
+    return {'kind': 'network', 'network': {
+        'hidden': design.hidden, 'recurrent': design.recurrent, 'weights': weights,
+        'weights_sha256': '', 'max_speed': design.max_speed,
+        'clean_stops': design.clean_stops}}
 
 
 def _network_drives(design: Design) -> np.ndarray:
@@ -69,9 +72,9 @@ def _stand_weights(design: Design, genome: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _stand_section(design: Design, weights: str) -> dict[str, Any]:
-    return {'kind': 'stand_net', 'network_hidden': design.hidden, 'network_recurrent': False,
-            'network_weights': weights, 'network_weights_sha256': '',
-            'network_max_speed': design.max_speed}
+    return {'kind': 'stand_net', 'stand_net': {
+        'hidden': design.hidden, 'weights': weights, 'weights_sha256': '',
+        'max_speed': design.max_speed}}
 
 
 def _stand_drives(design: Design) -> np.ndarray:

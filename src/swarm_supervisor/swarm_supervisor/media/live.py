@@ -49,6 +49,7 @@ from mona_controller.contract import (
     WorldStatus,
     metric_topic,
 )
+from mona_controller.controllers import states_of
 from swarm_metrics.bag_writer import TYPESTORE
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.world_cdr import (
@@ -225,7 +226,7 @@ class LiveView(EpisodeObserver):
             0, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict()).to_json())
+            parameters=config.to_dict(), states=states_of(config.controller.kind)).to_json())
         self.obstacles = obstacles_cdr(episode.world.arena)
         if self.pacer is not None:
             self.pacer.start(episode)
@@ -296,7 +297,8 @@ class LiveView(EpisodeObserver):
         states = episode.controllers.state
         server.publish(ROBOT_STATES, now_ns, lambda: states_cdr(states))
         server.publish(MARKERS, now_ns, lambda: markers_cdr(
-            world.poses, states, episode.config.mona.body_radius, now_ns))
+            world.poses, states, episode.config.mona.body_radius, now_ns,
+            palette=[state.colour for state in type(episode.controllers).STATES]))
         # A new map only once the world would have published one (every map_period).
         if force or (wall >= self._next_map and crossed(self._last_map_ns, episode.time_ns,
                                                         self._map_ns)):

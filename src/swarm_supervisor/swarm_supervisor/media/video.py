@@ -30,9 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from PIL import Image, ImageDraw, ImageFont
 
-from mona_controller.controller import STATE_NAMES, WAIT
 from swarm_metrics.metrics import METRICS, plotted
-from swarm_metrics.world_cdr import STATE_COLOURS
 from swarm_supervisor.media.recorded import AnimateError, Record, read_record
 from swarm_world.arena_markers import COLOUR as OBSTACLE_RGBA
 from swarm_world.field import CueField
@@ -42,9 +40,15 @@ ASPECT = 16 / 9
 #: column; more share it.
 PLOT_PITCH, PLOT_HEIGHT, PLOT_COLUMN = 0.27, 0.22, 0.81
 MOVING_COLOUR = (0.85, 0.85, 0.85, 1.0)  # robots of a bag without states, not cleaning
+CLEANING_COLOUR = (0.90, 0.10, 0.10, 1.0)  # and cleaning
 #: An obstacle's fill (the markers' grey) and its outline.
 OBSTACLE_FILL = tuple(round(c * 255) for c in OBSTACLE_RGBA[:3])
 OBSTACLE_EDGE = (64, 64, 64)
+
+
+def _pixel(colour: tuple[float, ...]) -> np.ndarray:
+    """An RGBA colour in [0, 1] as an RGB pixel."""
+    return (np.array(colour[:3]) * 255).astype(np.uint8)
 
 
 def frame_times(duration_ns: int, speedup: float, fps: float) -> np.ndarray:
@@ -68,6 +72,11 @@ class Renderer:
         self.width = width - width % 16
         self.height = round(self.width / ASPECT / 16) * 16
         self.scale = self.width / 1024  # layout and fonts are designed at 1024 px
+        self.states = setup.states  # the kind's state names and colours, as announced
+        if not self.states:
+            raise AnimateError("the episode's announcement names no controller states and its "
+                               'controller.kind is not registered here (docs/extending.md, "A '
+                               'controller")')
         self._layout()
         self.lut = (colormaps['viridis'](np.linspace(0, 1, 256))[:, :3] * 255).astype(np.uint8)
         # The cue, rebuilt from the episode's field by the cleaning record as time goes on.
@@ -88,7 +97,7 @@ class Renderer:
         rim = inside & (dy ** 2 + dx ** 2 > (radius - max(1.0, radius / 4)) ** 2)
         self.disc = (dy[inside], dx[inside])
         self.rim = (dy[rim], dx[rim])
-        self.colours = (np.array(STATE_COLOURS)[:, :3] * 255).astype(np.uint8)
+        self.colours = np.array([_pixel(state.colour) for state in self.states])
         font = font_manager.findfont('DejaVu Sans')
         self.font = ImageFont.truetype(font, max(10, round(22 * self.scale)))
 
@@ -112,10 +121,10 @@ class Renderer:
                  + f', seed {setup.seed} ({record.runner})')
         figure.text(0.055, 0.965, title, fontsize=15, va='center')
         if record.states is not None:
-            handles = [Patch(color=c, label=n) for n, c in zip(STATE_NAMES, STATE_COLOURS)]
+            handles = [Patch(color=state.colour, label=state.name) for state in self.states]
         else:
             handles = [Patch(color=MOVING_COLOUR, label='moving'),
-                       Patch(color=STATE_COLOURS[WAIT], label='cleaning (no states recorded)')]
+                       Patch(color=CLEANING_COLOUR, label='cleaning (no states recorded)')]
         figure.legend(handles=handles, loc='upper left', ncol=len(handles), frameon=False,
                       bbox_to_anchor=(0.53, 0.99), fontsize=12)
         axes = []
@@ -204,8 +213,7 @@ class Renderer:
             return self.colours[np.minimum(record.states[index], len(self.colours) - 1)]
         # Without states: a robot that cleaned in the last cleaning period is shown waiting.
         poses = record.poses[index]
-        colours = np.tile((np.array(MOVING_COLOUR[:3]) * 255).astype(np.uint8),
-                          (len(poses), 1))
+        colours = np.tile(_pixel(MOVING_COLOUR), (len(poses), 1))
         period = round(record.setup.world.cleaning_period * 1e9)
         k = self._next_event - 1  # the last event applied, at or before t_ns
         while k >= 0 and record.cleaning[k][0] > t_ns - period:
@@ -214,7 +222,7 @@ class Renderer:
             if len(cleaners):
                 distance = np.hypot(poses[:, None, 0] - cleaners[None, :, 0],
                                     poses[:, None, 1] - cleaners[None, :, 1])
-                colours[distance.argmin(axis=0)] = self.colours[WAIT]
+                colours[distance.argmin(axis=0)] = _pixel(CLEANING_COLOUR)
         return colours
 
     def render(self, t_ns: int) -> np.ndarray:

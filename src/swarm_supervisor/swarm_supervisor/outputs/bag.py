@@ -32,6 +32,7 @@ from mona_controller.contract import (
     WorldState,
     WorldStatus,
 )
+from mona_controller.controllers import states_of
 from swarm_metrics.bag_writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.recording import Closed, Recorder
@@ -148,7 +149,7 @@ class BagRecorder(EpisodeObserver):
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
             poses=tuple(map(tuple, episode.initial_poses.tolist())),
-            parameters=config.to_dict())
+            parameters=config.to_dict(), states=states_of(config.controller.kind))
         try:
             # The world node's latched scenery reaches the metrics node before any episode.
             self.recorder.obstacles(obstacles_cdr(world.arena))

@@ -20,8 +20,9 @@ from typing import Any
 
 from tqdm import tqdm
 
+from mona_controller.schema import leaves
 from swarm_supervisor import outputs
-from swarm_supervisor.config import SwarmConfig, write_ros_yaml
+from swarm_supervisor.config import SwarmConfig, current_keys, mapping_value, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.folder import (
     EPISODES_DIR,
@@ -50,18 +51,17 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
     parameter the episode's record lacks (one added to the schema since) counts as its
     default: that is what the episode ran."""
     record = json.loads((folder / outputs.EPISODE_FILE).read_text())
-    stored = record.get('parameters', {})
+    stored = current_keys(record.get('parameters', {}))
     expected = _expected_parameters(config)
     defaults = _expected_parameters(SwarmConfig())
-    for section, values in expected.items():
-        if section == 'study':  # the design around the episode does not change it
+    for key in leaves(config):
+        if key.startswith('study.'):  # the design around the episode does not change it
             continue
-        for key, value in values.items():
-            if stored.get(section, {}).get(key, defaults[section][key]) != value:
-                raise StudyError(
-                    f'{folder} was run with {section}.{key} = '
-                    f'{stored.get(section, {}).get(key)!r}, this study needs {value!r}: '
-                    f'--out holds a study of another design; {FIX}')
+        value = mapping_value(expected, key)
+        if mapping_value(stored, key, mapping_value(defaults, key)) != value:
+            raise StudyError(
+                f'{folder} was run with {key} = {mapping_value(stored, key)!r}, this study '
+                f'needs {value!r}: --out holds a study of another design; {FIX}')
 
 
 def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False

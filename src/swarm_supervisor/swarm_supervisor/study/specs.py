@@ -68,8 +68,7 @@ def factor_cells(config: SwarmConfig) -> list[tuple[tuple[tuple[str, Any], ...],
 
 def parameter_value(config: SwarmConfig, key: str) -> Any:
     """The value of a dotted parameter key, e.g. ``mona.ir_range``."""
-    section, _, name = key.partition('.')
-    return getattr(getattr(config, section), name)
+    return config.value(key)
 
 
 def design(config: SwarmConfig) -> list[EpisodeSpec]:
@@ -97,14 +96,10 @@ def quick_study(study: StudyParams) -> StudyParams:
 
 def episode_config(config: SwarmConfig, spec: EpisodeSpec) -> SwarmConfig:
     """The full configuration of one episode of ``config.study``."""
-    sections: dict[str, dict[str, Any]] = {
-        'episode': {'population': spec.population, 'seed': spec.seed,
-                    'duration': config.study.duration},
-        'controller': {'speed': spec.speed}}
-    for key, value in spec.levels:
-        section, _, name = key.partition('.')
-        sections.setdefault(section, {})[name] = value
-    return config.replace(**sections)
+    return config.with_values({
+        'episode.population': spec.population, 'episode.seed': spec.seed,
+        'episode.duration': config.study.duration, 'controller.speed': spec.speed,
+        **dict(spec.levels)})
 
 
 def snapshot_times(study: StudyParams) -> tuple[float, ...]:

@@ -18,10 +18,11 @@ from typing import Any
 
 import pandas as pd
 
+from mona_controller.schema import leaves
 from swarm_metrics.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs
-from swarm_supervisor.config import DESIGN_KEYS, SwarmConfig
+from swarm_supervisor.config import DESIGN_KEYS, SwarmConfig, current_keys, mapping_value
 from swarm_supervisor.study.errors import StudyError
 
 TABLE_FILE = 'all_metrics.csv'
@@ -100,15 +101,18 @@ def incomplete_episodes(folders: Iterable[Path]) -> dict[Path, list[Finding]]:
 
 
 def _read_record(folder: Path) -> dict[str, Any]:
+    """An episode.json, its parameters under their current keys."""
     try:
-        return json.loads((folder / outputs.EPISODE_FILE).read_text())
+        record = json.loads((folder / outputs.EPISODE_FILE).read_text())
     except (OSError, ValueError) as error:
         raise StudyError(f'{folder / outputs.EPISODE_FILE}: {error}') from None
+    if isinstance(record, dict) and isinstance(record.get('parameters'), dict):
+        record['parameters'] = current_keys(record['parameters'])
+    return record
 
 
 def _parameter(record: dict[str, Any], key: str) -> Any:
-    section, _, name = key.partition('.')
-    return record.get('parameters', {}).get(section, {}).get(name)
+    return mapping_value(record.get('parameters', {}), key)
 
 
 def episode_key(folder: Path, factors: Sequence[str] = ()) -> dict[str, Any]:
@@ -140,16 +144,12 @@ def varying_parameters(folders: Sequence[Path]) -> list[str]:
     known (e.g. ``study --from-episodes``), in the schema's order."""
     records = [_read_record(Path(folder)) for folder in folders]
     names = []
-    for section, fields in SwarmConfig().to_dict().items():
-        if section == 'study':
+    for key in leaves(SwarmConfig()):
+        if key.startswith('study.') or key in DESIGN_KEYS:
             continue
-        for name in fields:
-            key = f'{section}.{name}'
-            if key in DESIGN_KEYS:
-                continue
-            values = {json.dumps(_parameter(record, key), sort_keys=True) for record in records}
-            if len(values) > 1:
-                names.append(key)
+        values = {json.dumps(_parameter(record, key), sort_keys=True) for record in records}
+        if len(values) > 1:
+            names.append(key)
     return names
 
 

@@ -64,16 +64,16 @@ def check_parameters(config_path: Path, overrides: list[str]) -> SwarmConfig:
     """
     config = load_config(config_path)
     known = config.to_dict()
-    sections: dict[str, dict] = {}
+    values = {}
     for text in overrides:
         name, _, value = text.partition(':=')
         section, _, key = name.partition('.')
         if key and section in known:
             try:
-                sections.setdefault(section, {})[key] = yaml.safe_load(value)
+                values[name] = yaml.safe_load(value)
             except yaml.YAMLError:
                 raise ParameterError(f'{name} = {value!r} is not a YAML value') from None
-    config = config.replace(**sections)
+    config = config.with_values(values)
     if config.episode.population < 1:
         raise ParameterError('episode.population = 0: a ros run needs a robot')
     return config

@@ -42,6 +42,7 @@ from mona_controller.contract import (
     WorldStatus,
     recorder_names,
 )
+from mona_controller.controllers import states_of
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros_params import declare_section
 from mona_controller.schema import ParameterError, param, validate
@@ -171,7 +172,8 @@ class Supervisor(Node):
         self.announcement = Announcement(
             episode, seed=seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.status.time_ns,
-            poses=tuple(map(tuple, poses.tolist())), parameters=config.to_dict())
+            poses=tuple(map(tuple, poses.tolist())), parameters=config.to_dict(),
+            states=states_of(config.controller.kind))
         self.episode_pub.publish(String(data=self.announcement.to_json()))
         self.get_logger().info(f'episode {episode}: seed {seed}, {len(poses)} robots, start '
                                f'{self.announcement.start_ns} ns')

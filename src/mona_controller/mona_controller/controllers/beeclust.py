@@ -5,8 +5,10 @@ Pure and vectorised: one :class:`SwarmController` holds the state of any number 
 the embedded runner steps the whole swarm at once and a controller node holds just its own
 robot. Each robot draws from its own random generator, seeded from (episode seed, robot id),
 so a robot behaves the same whichever runner hosts it. It is the ``beeclust`` kind of
-:mod:`mona_controller.controllers` (the seam every controller implements);
-:mod:`mona_controller.reference` writes its rules out robot by robot.
+:mod:`mona_controller.controllers` (the seam every controller implements): its parameters
+are the section ``controller.beeclust.*`` (:class:`BeeclustParams`), its states
+:data:`STATES`; :mod:`mona_controller.controllers.reference` writes its rules out robot by
+robot.
 """
 
 from __future__ import annotations
@@ -18,14 +20,17 @@ from collections.abc import Sequence
 
 import numpy as np
 
-# Command is also imported from here (its home before the seam, and engine code uses it).
-from mona_controller.controllers import CONTROLLERS, Command, Controller
+from mona_controller.controllers.base import Command, Controller, State
+from mona_controller.controllers.params import ControllerParams
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError, param, validate
 
 #: Behaviour states (also published for markers and recorded in bags).
 FOLLOW, AVOID, WAIT, TURN = 0, 1, 2, 3
-STATE_NAMES = ('follow', 'avoid', 'wait', 'turn')
+#: The states as observers show them, by code: robots following the gradient green, avoiding
+#: a wall orange, waiting (and cleaning) red, turning blue.
+STATES = (State('follow', (0.20, 0.75, 0.25, 1.0)), State('avoid', (1.00, 0.60, 0.00, 1.0)),
+          State('wait', (0.90, 0.10, 0.10, 1.0)), State('turn', (0.25, 0.45, 1.00, 1.0)))
 
 #: What a robot does at a wall (docs/model.md).
 AVOID_MODES = ('turn-away', 'random-turn')
@@ -38,17 +43,10 @@ CONTROLLER_STREAM = 1
 
 
 @dataclasses.dataclass(frozen=True)
-class ControllerParams:
-    """Parameters of the controller: its kind, and the gradient-following BEECLUST
-    controller's (the paper's eq. 1 and eq. 2 and its parameter table; docs/model.md,
-    Controller)."""
+class BeeclustParams:
+    """The gradient-following BEECLUST controller's parameters, controller.beeclust.* (the
+    paper's eq. 1 and eq. 2 and its parameter table; docs/model.md, Controller)."""
 
-    kind: str = param('beeclust',
-                      doc="the controller, a kind of mona_controller.controllers.CONTROLLERS: "
-                          "'beeclust' follows the gradient (eq. 2) and waits on meeting a "
-                          'robot (eq. 1)')
-    speed: float = param(0.08, unit='m/s', low=0.0, high=1.0,
-                         doc='forward speed v_r on a clean floor (beta = speed / wheel unit)')
     alpha: float = param(2.0, unit='cue units per wheel unit', low=0.01, high=1e6,
                          doc='gradient gain divisor of eq. 2')
     wait_max: float = param(30.0, unit='s', low=0.0, high=3600.0,
@@ -69,51 +67,25 @@ class ControllerParams:
                        doc="at a wall: 'turn-away' turns in place away from it until no beam "
                            "sees it; 'random-turn' turns by U[turn_min, turn_max] in a random "
                            'direction, blind, as after a wait (classic BEECLUST)')
-    network_hidden: int = param(8, unit='neurons', low=1, high=256,
-                                doc="the 'network' kind's hidden layer width "
-                                    '(mona_controller.network)')
-    network_recurrent: bool = param(False,
-                                    doc="the 'network' kind's hidden layer also reads its "
-                                        'own previous values (an Elman net)')
-    network_weights: str = param('', doc="the 'network' kind's weights, an .npz "
-                                         '(mona_controller.network: w1, b1, w2, b2 and wr '
-                                         'if recurrent); absolute, or relative to the '
-                                         'parameter file naming it (to the current '
-                                         "directory if given otherwise, e.g. -p); '' draws "
-                                         'them from network_seed')
-    network_seed: int = param(0, low=0, high=2**32 - 1,
-                              doc="the seed of the 'network' kind's weights when "
-                                  'network_weights is empty (N(0, 1) each)')
-    network_weights_sha256: str = param('', doc='the SHA-256 of network_weights, worked '
-                                                "out on loading (a value given must match "
-                                                "the file's)")
-    network_max_speed: float = param(0.0, unit='m/s', low=0.0, high=1.0,
-                                     doc="the 'network' kind's top wheel speed, forward or "
-                                         'back (its wheel outputs are scaled to it, within '
-                                         "mona.max_wheel_command); 0: the Mona's top command")
-    network_clean_stops: bool = param(False,
-                                      doc="the 'network' kind cleans only standing: where "
-                                          'its cleaner output is on, both wheels are '
-                                          "commanded 0 (as BEECLUST's robots clean only "
-                                          'while they wait)')
 
     def __post_init__(self) -> None:
-        validate(self, 'controller.')
-        if self.kind not in CONTROLLERS:  # the registry may grow at run time: checked here
-            raise ParameterError(f'controller.kind = {self.kind!r} is not allowed: one of '
-                                 + ', '.join(repr(kind) for kind in CONTROLLERS))
+        validate(self, 'controller.beeclust.')
         if self.turn_min > self.turn_max:
-            raise ParameterError(f'controller.turn_min = {self.turn_min} must not exceed '
-                                 f'controller.turn_max = {self.turn_max}')
-        if self.kind == 'network' or self.network_weights:
-            from mona_controller.network import check_weights  # it imports this module
-            check_weights(self)
-        if self.turn_at == 'speed' and self.speed == 0:
-            raise ParameterError("controller.turn_at = 'speed' needs controller.speed > 0 (a "
-                                 'robot of speed 0 would never finish a turn)')
+            raise ParameterError(f'controller.beeclust.turn_min = {self.turn_min} must not '
+                                 f'exceed controller.beeclust.turn_max = {self.turn_max}')
+
+    def check(self, controller: ControllerParams) -> None:
+        """Refuse what the whole ``controller`` section makes impossible.
+
+        Raises:
+            ParameterError: ``turn_at = 'speed'`` with ``controller.speed`` 0.
+        """
+        if self.turn_at == 'speed' and controller.speed == 0:
+            raise ParameterError("controller.beeclust.turn_at = 'speed' needs controller.speed "
+                                 '> 0 (a robot of speed 0 would never finish a turn)')
 
 
-def waiting_time(cue: np.ndarray | float, params: ControllerParams) -> np.ndarray | float:
+def waiting_time(cue: np.ndarray | float, params: BeeclustParams) -> np.ndarray | float:
     """Eq. 1 (with the S^2 erratum): w = w_max * S^2 / (S^2 + 25000), S in [0, 255]."""
     squared = np.square(cue, dtype=np.float64)
     return params.wait_max * squared / (squared + params.wait_half_constant)
@@ -141,10 +113,11 @@ def wheel_constants(params: ControllerParams, mona: MonaParams) -> tuple[float, 
     (``turn_at``: turn_speed or the robot's speed, within the wheels' top command, or the top
     command) and the turn rate it gives (rad/s)."""
     beta = params.speed / mona.wheel_unit_speed
-    if params.turn_at == 'full':
+    own = params.section(BeeclustParams)
+    if own.turn_at == 'full':
         turn_command = mona.max_wheel_command
     else:
-        speed = params.turn_speed if params.turn_at == 'turn_speed' else params.speed
+        speed = own.turn_speed if own.turn_at == 'turn_speed' else params.speed
         turn_command = min(speed / mona.wheel_unit_speed, mona.max_wheel_command)
     return beta, turn_command, 2 * turn_command * mona.wheel_unit_speed / mona.wheel_separation
 
@@ -169,6 +142,9 @@ class SwarmController(Controller):
 
     ``state`` holds :data:`FOLLOW`, :data:`AVOID`, :data:`WAIT` or :data:`TURN`.
     """
+
+    STATES = STATES
+    Params = BeeclustParams
 
     #: Per-robot state (the rest follows from the parameters: :meth:`derive`).
     PER_ROBOT = (*Controller.PER_ROBOT, 'until', 'turn_direction', '_command_block', 'rngs')
@@ -203,17 +179,18 @@ class SwarmController(Controller):
         index = self.param_index.tolist()
         sets = list(zip(self.params, self.mona))
         constants = [wheel_constants(params, mona) for params, mona in sets]
-        turns = [(params.turn_min, params.turn_max, turn_rate)
-                 for params, (_, _, turn_rate) in zip(self.params, constants)]
+        own = [params.section(BeeclustParams) for params in self.params]
+        turns = [(mine.turn_min, mine.turn_max, turn_rate)
+                 for mine, (_, _, turn_rate) in zip(own, constants)]
         bearings = [tuple(mona.ir_bearings().tolist()) for mona in self.mona]
         self._turn = [turns[k] for k in index]
         self._bearings = [bearings[k] for k in index]
-        self._random_turn = [self.params[k].avoid == 'random-turn' for k in index]
+        self._random_turn = [own[k].avoid == 'random-turn' for k in index]
         self._beams = np.ones(self.mona[0].ir_count, dtype=bool)
         # Sets whose Monas differ only where the tables do not look (e.g. the IR range)
         # share one table: a batch gathers from fewer, smaller arrays.
-        keys = [(params, mona.max_wheel_command, beta, turn_command)
-                for (params, mona), (beta, turn_command, _) in zip(sets, constants)]
+        keys = [(mine, mona.max_wheel_command, beta, turn_command)
+                for mine, (_, mona), (beta, turn_command, _) in zip(own, sets, constants)]
         unique = list(dict.fromkeys(keys))
         tables = [_tables(*key) for key in unique]
         self._waits = np.concatenate([waits for waits, _ in tables])
@@ -352,7 +329,7 @@ _COMMANDS = 4 * _VALUES
 
 
 @functools.lru_cache(maxsize=64)
-def _tables(params: ControllerParams, max_command: float, beta: float,
+def _tables(params: BeeclustParams, max_command: float, beta: float,
             turn_command: float) -> tuple[np.ndarray, np.ndarray]:
     """The lookup tables of one parameter set (read-only, shared by controllers).
 

@@ -1,8 +1,8 @@
 """The ``stand_net`` controller: a small net that drives, and at each cleaning tick decides,
 with a draw from the robot's own generator, whether to stand and clean.
 
-What a robot reads each control step (:func:`inputs`, 2 + 2K + 4 values, each of order 1
-so that the thresholds a stop rule needs lie within reach of weights of order 1):
+What a robot reads each control step (2 + 2K + 4 inputs, each of order 1, so that the
+thresholds a stop rule needs lie within reach of weights of order 1):
 
 - its ground readings: their mean S over 32 (the disc's peak, 255, is about 8) and their
   difference s_l - s_r over 32 (eq. 2's alpha = 2 turns a difference of 12 into a full
@@ -14,50 +14,129 @@ so that the thresholds a stop rule needs lie within reach of weights of order 1)
   one (1 now, 0 never), and how much its own reading fell since the stand began,
   (S at the start - S now) / 32 (0 while moving): how much it is cleaning.
 
-One hidden layer of ``hidden`` softsign neurons feeds three outputs: the wheels (softsign,
-times the top command of ``max_speed``) and the stand's logit a. A stand is decided only
-when a new cleaning period begins (``decide_period``, the world's ``cleaning_period``:
-the first control step at or after each whole period), not every step: the robot draws
-u ~ U[0, 1) from ``default_rng([seed, CONTROLLER_STREAM, robot id])`` and stands for the
-period if u < p(a) = min(max(1/2 + a/4, 0), 1) (the logistic's slope at 0, cut to [0, 1]:
-exact IEEE arithmetic, no library ``exp``). A standing robot's wheels are 0 and its cleaner
-on, so it cleans exactly at the ticks it stands through, and never while moving. With
-``stand_needs_robot`` a robot may *begin* a stand only if a beam saw a robot since its last
-decision (BEECLUST's rule); it may go on standing without one.
+One hidden layer of ``controller.stand_net.hidden`` softsign neurons feeds three outputs:
+the wheels (softsign, times the top command of ``max_speed``, as the ``network`` kind's) and
+the stand's logit a. A stand is decided only when a new ``period`` begins (the world's
+``cleaning_period``: the first control step at or after each whole period), not every step:
+the robot draws u ~ U[0, 1) from ``default_rng([seed, CONTROLLER_STREAM, robot id])`` and
+stands for the period if u < p(a) = min(max(1/2 + a/4, 0), 1) (the logistic's slope at 0,
+cut to [0, 1]: exact IEEE arithmetic, no library ``exp``). A standing robot's wheels are 0
+and its cleaner on, so it cleans exactly at the ticks it stands through and never while
+moving: BEECLUST's limits, with wheels at most ``max_speed``. With ``needs_robot`` a robot
+may *begin* a stand only if a beam saw a robot since its last decision (BEECLUST's rule);
+it may go on standing without one.
 
-The step is one numba kernel (:mod:`mona_controller.stand_net_forward`, imported on the
-first step), so a robot computes the same bits alone, in any batch and in a controller
-node; :class:`Longhand` is one robot's step in plain Python, to check the kernel against.
-The weights file is the ``network`` kind's format (w1 [hidden, inputs], b1, w2 [3, hidden],
-b2), with 2 + 2K + 4 inputs.
+The step is one numba kernel (:mod:`.stand_net_forward`, imported on the first step), so a
+robot computes the same bits alone, in any batch and in a controller node; :class:`Longhand`
+is one robot's step in plain Python, to check the kernel against. The weights file is the
+``network`` kind's format (:mod:`.network_weights`: w1 [hidden, inputs], b1, w2 [3, hidden],
+b2), with 2 + 2K + 4 inputs; with ``weights: ''`` they are drawn from ``seed``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
+import os
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
-from mona_controller.controllers import CONTROLLERS, Command, Controller
-from mona_controller.network import flatten, load_weights, shapes, top_command
-from mona_controller.schema import ParameterError
-
-if TYPE_CHECKING:
-    from mona_controller.controller import ControllerParams
-    from mona_controller.mona import MonaParams
+from mona_controller.controllers.base import Command, Controller, State
+from mona_controller.controllers.beeclust import CONTROLLER_STREAM
+from mona_controller.controllers.network_weights import (
+    MAX_HIDDEN,
+    flatten,
+    load_weights,
+    shapes,
+)
+from mona_controller.controllers.params import ControllerParams
+from mona_controller.mona import MonaParams
+from mona_controller.schema import ParameterError, param, validate
 
 #: The inputs beyond the ground's and the beams': standing, stood, recency, removed.
 ON_BOARD = 4
 #: Cue units and seconds per input unit.
 CUE_SCALE, TIME_SCALE = 32.0, 10.0
-#: The stream of every robot's generator (BEECLUST's: mona_controller.controller).
-CONTROLLER_STREAM = 1
-#: The seconds between two decisions: the world's cleaning period.
-DECIDE_PERIOD = 1.0
-#: Behaviour codes shown to observers (mona_controller.controller's FOLLOW and WAIT).
-MOVING, STANDING = 0, 2
+#: The stream of seeded weights (the network kind's is 7).
+STAND_NET_STREAM = 8
+#: Behaviour states: moving (green), standing and cleaning (red).
+MOVING, STANDING = 0, 1
+STATES = (State('moving', (0.20, 0.75, 0.25, 1.0)), State('standing', (0.90, 0.10, 0.10, 1.0)))
+
+
+@dataclasses.dataclass(frozen=True)
+class StandNetParams:
+    """The stand_net kind's parameters, ``controller.stand_net.*`` (docs/learned.md)."""
+
+    hidden: int = param(6, unit='neurons', low=1, high=MAX_HIDDEN,
+                        doc='the hidden layer width (mona_controller.controllers.stand_net)')
+    weights: str = param('', doc="the weights, an .npz in the network kind's format (w1, b1, "
+                                 'w2, b2); absolute, or relative to the parameter file naming '
+                                 "it (to the current directory if given otherwise); '' draws "
+                                 'them from seed')
+    seed: int = param(0, low=0, high=2**32 - 1,
+                      doc='the seed of the weights when weights is empty (N(0, 1) each)')
+    weights_sha256: str = param('', doc='the SHA-256 of weights, worked out on loading (a '
+                                        "value given must match the file's)")
+    max_speed: float = param(0.08, unit='m/s', low=0.0, high=1.0,
+                             doc="the top wheel speed, forward or back (BEECLUST's 8 cm/s; "
+                                 "0: the Mona's top command)")
+    period: float = param(1.0, unit='s', low=0.001, high=3600.0,
+                          doc="seconds between two decisions to stand (the world's "
+                              'cleaning_period)')
+    needs_robot: bool = param(False, doc='begin a stand only with a robot seen since the last '
+                                         "decision (BEECLUST's rule)")
+
+    def __post_init__(self) -> None:
+        validate(self, 'controller.stand_net.')
+        check_weights(self)
+
+
+def check_weights(params: StandNetParams) -> None:
+    """Resolve ``params.weights`` to an absolute path, fill in its SHA-256 and check its
+    arrays are a net of ``hidden`` neurons (the inputs are checked with the Mona, by the
+    controller).
+
+    Raises:
+        ParameterError: naming the key: a missing or bad file, a hash that does not match,
+            an array missing, extra or of the wrong shape.
+    """
+    if not params.weights:
+        if params.weights_sha256:
+            raise ParameterError('controller.stand_net.weights_sha256 is set but '
+                                 'controller.stand_net.weights is empty')
+        return
+    path = os.path.abspath(os.path.expanduser(params.weights))
+    key = f'controller.stand_net.weights = {params.weights!r}'
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as error:
+        raise ParameterError(f'{key}: cannot read {path} ({error.strerror})') from None
+    if params.weights_sha256 not in ('', digest):
+        raise ParameterError(f'{key}: its SHA-256 is {digest}, not '
+                             f'controller.stand_net.weights_sha256 = '
+                             f'{params.weights_sha256!r}')
+    arrays = load_weights(path, digest)
+    inputs = arrays['w1'].shape[1] if arrays.get('w1', np.zeros(0)).ndim == 2 else 0
+    expected = shapes(inputs, params.hidden, False)
+    if set(arrays) != set(expected) or any(arrays[name].shape != shape
+                                           for name, shape in expected.items()):
+        raise ParameterError(f'{key}: holds {", ".join(sorted(arrays))} of shapes '
+                             f'{[list(a.shape) for a in arrays.values()]}, not a net of hidden '
+                             f'= {params.hidden} (w1, b1, w2, b2)')
+    object.__setattr__(params, 'weights', path)
+    object.__setattr__(params, 'weights_sha256', digest)
+
+
+def top_command(params: StandNetParams, mona: MonaParams) -> float:
+    """The wheel command a wheel output of 1 stands for: ``max_speed`` in wheel units (as
+    BEECLUST's beta is worked out), within the Mona's top command; 0: the top command."""
+    if params.max_speed == 0.0:
+        return float(mona.max_wheel_command)
+    return min(params.max_speed / mona.wheel_unit_speed, mona.max_wheel_command)
 
 
 def input_count(ir_count: int) -> int:
@@ -95,22 +174,22 @@ def stand_probability(logit: float) -> float:
     return min(max(0.5 + logit * 0.25, 0.0), 1.0)
 
 
-def net_arrays(params: ControllerParams, mona: MonaParams) -> dict[str, np.ndarray]:
-    """The arrays of ``params``' weights file, checked against ``mona``'s beams.
+def net_arrays(params: StandNetParams, mona: MonaParams) -> dict[str, np.ndarray]:
+    """The arrays of ``params``' net for ``mona``: its file's, or drawn from its seed.
 
     Raises:
-        ParameterError: no weights file, or one whose net has other inputs than ``mona``
-            gives.
+        ParameterError: the file's net has other inputs than ``mona`` gives.
     """
-    if not params.network_weights:
-        raise ParameterError("controller.network_weights = '': the stand_net kind needs a "
-                             'weights file')
-    arrays = load_weights(params.network_weights, params.network_weights_sha256)
     inputs = input_count(mona.ir_count)
+    if not params.weights:
+        rng = np.random.default_rng([STAND_NET_STREAM, params.seed])
+        return {name: rng.normal(size=shape) for name, shape in
+                shapes(inputs, params.hidden, False).items()}
+    arrays = load_weights(params.weights, params.weights_sha256)
     if arrays['w1'].shape[1] != inputs:
-        raise ParameterError(f'controller.network_weights = {params.network_weights!r}: w1 '
-                             f'has {arrays["w1"].shape[1]} inputs, a stand_net on a Mona '
-                             f'with {mona.ir_count} IR sensors reads {inputs} (2 ground, '
+        raise ParameterError(f'controller.stand_net.weights = {params.weights!r}: w1 has '
+                             f'{arrays["w1"].shape[1]} inputs, a stand_net on a Mona with '
+                             f'{mona.ir_count} IR sensors reads {inputs} (2 ground, '
                              f'{mona.ir_count} proximities, {mona.ir_count} robot flags, '
                              f'{ON_BOARD} on board)')
     return arrays
@@ -121,7 +200,7 @@ class Longhand:
 
     def __init__(self, arrays: Mapping[str, np.ndarray], ir_range: float, top: float,
                  robot_id: int, seed: int, needs_robot: bool = False,
-                 period: float = DECIDE_PERIOD) -> None:
+                 period: float = 1.0) -> None:
         self.w1, self.b1, self.w2, self.b2 = (arrays[name].tolist()
                                               for name in ('w1', 'b1', 'w2', 'b2'))
         self.ir_range, self.top, self.needs_robot, self.period = (ir_range, top,
@@ -182,6 +261,8 @@ class StandNetController(Controller):
     vector and each robot's offset into it (:meth:`derive`).
     """
 
+    STATES = STATES
+    Params = StandNetParams
     PER_ROBOT = (*Controller.PER_ROBOT, 'standing', 'began', 'level0', 'last_seen',
                  'seen_since', 'decided', 'rngs')
 
@@ -206,17 +287,18 @@ class StandNetController(Controller):
     def derive(self) -> None:
         """Every parameter set's net in one vector, and each robot's offset into it, width,
         IR range, top wheel command and decision period."""
-        nets = [flatten(net_arrays(params, mona)) for params, mona in zip(self.params, self.mona)]
+        own = [params.section(StandNetParams) for params in self.params]
+        nets = [flatten(net_arrays(net, mona)) for net, mona in zip(own, self.mona)]
         starts = np.cumsum([0] + [len(net) for net in nets[:-1]])
         self._weights = np.concatenate(nets)
         index = self.param_index
         self._offset = starts.astype(np.int64)[index]
-        self._hidden = np.array([p.network_hidden for p in self.params], np.int64)[index]
+        self._hidden = np.array([net.hidden for net in own], np.int64)[index]
         self._ir_range = np.array([m.ir_range for m in self.mona], np.float64)[index]
-        self._top = np.array([top_command(p, m) for p, m in zip(self.params, self.mona)],
+        self._top = np.array([top_command(net, m) for net, m in zip(own, self.mona)],
                              np.float64)[index]
-        self._needs_robot = np.zeros(len(index), dtype=bool)
-        self._period = np.full(len(index), DECIDE_PERIOD)
+        self._needs_robot = np.array([net.needs_robot for net in own], bool)[index]
+        self._period = np.array([net.period for net in own], np.float64)[index]
 
     def reset(self, seed: int) -> None:
         """Start a new episode: every robot moving, nothing seen, generators reseeded (the
@@ -236,7 +318,7 @@ class StandNetController(Controller):
              now: float | np.ndarray) -> Command:
         """Every robot's net on its readings: wheels and cleaner; a stand decided at the
         first step of each period, with one draw from the robot's generator."""
-        from mona_controller.stand_net_forward import step_kernel  # numba: on first use
+        from mona_controller.controllers.stand_net_forward import step_kernel  # numba: lazily
 
         n = len(self.robot_ids)
         times = np.broadcast_to(np.asarray(now, dtype=np.float64), (n,))
@@ -256,5 +338,3 @@ class StandNetController(Controller):
         np.multiply(self.standing, STANDING, out=self.state, casting='unsafe')
         return Command(wheels=wheels, cleaner=cleaner)
 
-
-assert 'stand_net' in CONTROLLERS  # registered by name in mona_controller.controllers

@@ -1,15 +1,17 @@
-"""The controller seam: what every Mona controller is, and the registry of controller kinds.
+"""The controller seam: what every Mona controller is, its states, and how a kind is built.
 
 A controller maps each robot's readings and sim time to its wheel and cleaner commands (the
 VMAS contract, ``compute_action(observation) -> action``, for N robots at once). The engine,
 the batched engine and the controller node drive any :class:`Controller` alike;
-``controller.kind`` names which one, :data:`CONTROLLERS` maps the name to its class and
-:func:`make_controller` builds it. BEECLUST (:class:`~mona_controller.controller.
-SwarmController`) is the first kind; :mod:`mona_controller.reference` holds its plain-Python
-reference and the check that a fast implementation follows it.
+``controller.kind`` names which one (:mod:`.registry`), :func:`make_controller` builds it.
+A kind is one class: it declares its own parameters (``Params``, the section
+``controller.<kind>.*``) and its behaviour states (:attr:`Controller.STATES`, the names and
+colours every observer shows). BEECLUST (:mod:`.beeclust`) is the first kind;
+:mod:`.reference` holds its plain-Python reference and the check that a fast implementation
+follows it.
 
 Adding a controller: write one :class:`Controller` subclass (its docstring lists what is
-compulsory), add one line to :data:`CONTROLLERS`, and run the conformance tests
+compulsory), add one line to :data:`~.registry.CONTROLLERS`, and run the conformance tests
 (tests/unit/test_controllers.py runs every registered kind).
 """
 
@@ -17,48 +19,32 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import importlib
-import importlib.metadata
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, ClassVar, Self
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, Self
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from mona_controller.controller import ControllerParams
-    from mona_controller.mona import MonaParams
+from mona_controller.controllers import registry
+from mona_controller.controllers.params import DEFAULT_KIND, ControllerParams
+from mona_controller.mona import MonaParams
 
-#: Every controller kind, by the name ``controller.kind`` takes: ``'module:Class'``, imported
-#: on first use, so that the parameter schema can list the kinds without importing their
-#: modules (which import the schema). Adding a controller is adding one line here, or
-#: :func:`register_controller`, or an entry point of :data:`ENTRY_POINTS` in one's own package.
-CONTROLLERS: dict[str, str] = {
-    'beeclust': 'mona_controller.controller:SwarmController',
-    'network': 'mona_controller.network:NetworkController',
-    'stand_net': 'mona_controller.stand_net:StandNetController',
-}
-#: The entry-point group through which an installed package adds controller kinds
-#: (``name = 'module:Class'``): every process (a study's workers, every node) sees them.
-ENTRY_POINTS = 'mona_swarm.controllers'
+#: An RGBA colour, each channel in [0, 1].
+Colour = tuple[float, float, float, float]
 
 
-def register_controller(kind: str, target: str) -> None:
-    """Add a controller kind, ``target`` being ``'module:Class'`` (for this process and those
-    it forks; a spawned worker or a node sees it only through :data:`ENTRY_POINTS`).
+@dataclasses.dataclass(frozen=True)
+class State:
+    """A behaviour state of a controller kind, as observers show it (markers, videos, the
+    Foxglove layout): its code is its index in the kind's :attr:`Controller.STATES`."""
 
-    Raises:
-        ValueError: the kind is taken by another class, or ``target`` is not 'module:Class'.
-    """
-    module, colon, name = target.partition(':')
-    if not (module and colon and name.isidentifier()):
-        raise ValueError(f"controller {kind!r}: {target!r} is not 'module:Class'")
-    if CONTROLLERS.get(kind, target) != target:
-        raise ValueError(f'controller kind {kind!r} is already {CONTROLLERS[kind]}')
-    CONTROLLERS[kind] = target
+    name: str  #: e.g. 'follow'
+    colour: Colour  #: RGBA in [0, 1]
 
-
-for _point in importlib.metadata.entry_points(group=ENTRY_POINTS):
-    CONTROLLERS.setdefault(_point.name, _point.value)
+    def __post_init__(self) -> None:
+        if not self.name or len(self.colour) != 4 or \
+                not all(0.0 <= channel <= 1.0 for channel in self.colour):
+            raise ValueError(f'state {self.name!r}: a name and an RGBA colour in [0, 1], not '
+                             f'{self.colour!r}')
 
 
 @dataclasses.dataclass
@@ -79,19 +65,24 @@ class Controller(abc.ABC):
 
     Compulsory in a subclass:
 
+    - :attr:`STATES`: its behaviour states (:class:`State`, a name and a colour each); code
+      i of ``state`` is ``STATES[i]``, which markers, bags, videos and the Foxglove layout
+      show.
     - ``__init__(params, mona, robot_ids)`` that calls ``super().__init__(params, mona,
       robot_ids)`` (which sets the attributes below and calls :meth:`derive`), then creates
       its own per-robot state.
     - :meth:`reset` and :meth:`step`.
     - :attr:`PER_ROBOT` naming every per-robot attribute it adds (arrays and lists over its
       robots, in robot order), after those of this class.
-    - ``state``: one int8 behaviour code per robot, for observers (markers, bags, videos
-      colour robots by it): BEECLUST's ``FOLLOW, AVOID, WAIT, TURN`` (0..3,
-      :mod:`mona_controller.controller`). A controller without these behaviours documents
-      what it puts there. ``encounters``: int64 per robot, the robot meetings it counted
-      (0 if it counts none).
+    - ``state``: one int8 code per robot, an index of :attr:`STATES`. ``encounters``: int64
+      per robot, the robot meetings it counted (0 if it counts none).
 
-    Optional: :meth:`derive`, for whatever follows from the parameters alone (per-robot
+    Optional: :attr:`Params`, a frozen dataclass of its own parameters (fields made with
+    :func:`~mona_controller.schema.param`, validated in ``__post_init__`` with the prefix
+    ``controller.<kind>.``; a ``check(controller)`` method may check them against the whole
+    ``controller`` section). Every ``ControllerParams`` then holds one, read as
+    ``params.<kind>`` or, typed, ``params.section(Params)``.
+    Also optional: :meth:`derive`, for whatever follows from the parameters alone (per-robot
     constants, lookup tables); it is called by ``__init__`` and by :meth:`merge`.
 
     Every instance attribute must be named in :attr:`PER_ROBOT`, be one of the parameter
@@ -112,6 +103,10 @@ class Controller(abc.ABC):
     #: The per-robot attributes :meth:`merge` joins, in one list: arrays are concatenated and
     #: the parts keep views of their rows; lists are concatenated (their items shared).
     PER_ROBOT: ClassVar[tuple[str, ...]] = ('robot_ids', 'state', 'encounters')
+    #: The behaviour states, by code (compulsory: a kind without states has nothing to show).
+    STATES: ClassVar[tuple[State, ...]] = ()
+    #: The kind's own parameter section (``controller.<kind>.*``); None: it has none.
+    Params: ClassVar[type | None] = None
 
     def __init__(self, params: ControllerParams, mona: MonaParams,
                  robot_ids: Sequence[int]) -> None:
@@ -215,13 +210,41 @@ class Controller(abc.ABC):
 
 
 def controller_class(kind: str) -> type[Controller]:
-    """The class registered as ``kind`` in :data:`CONTROLLERS` (imported on first use).
+    """The class registered as ``kind`` (imported on first use).
 
     Raises:
         KeyError: no such kind (``ControllerParams`` refuses one when it is built).
+        TypeError: the registered class is not a :class:`Controller` with states.
     """
-    module, _, name = CONTROLLERS[kind].partition(':')
-    return getattr(importlib.import_module(module), name)
+    cls = registry.load(kind)
+    if not (isinstance(cls, type) and issubclass(cls, Controller) and cls.STATES):
+        raise TypeError(f'controller kind {kind!r} ({registry.CONTROLLERS[kind]}) is not a '
+                        'Controller subclass with STATES')
+    return cls
+
+
+def states_of(kind: str) -> tuple[State, ...]:
+    """The behaviour states of the kind ``kind``, by code (what observers show).
+
+    Raises:
+        KeyError: the kind is not registered in this process.
+    """
+    if kind not in registry.CONTROLLERS:
+        raise KeyError(f'controller.kind {kind!r} is not registered in this process (one of '
+                       f'{", ".join(map(repr, registry.CONTROLLERS))})')
+    return controller_class(kind).STATES
+
+
+def states_for(parameters: Mapping[str, Any]) -> tuple[State, ...]:
+    """The states of the kind that a mapping of parameters names (an announcement's, a
+    record's: ``controller.kind``; the default kind where it names none).
+
+    Raises:
+        KeyError: the kind is not registered in this process.
+    """
+    section = parameters.get('controller')
+    kind = section.get('kind', DEFAULT_KIND) if isinstance(section, Mapping) else DEFAULT_KIND
+    return states_of(str(kind))
 
 
 def make_controller(params: ControllerParams, mona: MonaParams,

@@ -7,7 +7,7 @@ controller (lone or merged) and one Longhand per robot with the same random read
 (:func:`random_readings`) and times, and demands the same bits every step: wheels, cleaner,
 state, the end of a wait or turn, turn direction, encounters and each generator's state.
 It ships beside the fast code so that any implementation of these rules, or any change to
-:class:`~mona_controller.controller.SwarmController`, is checked by one call
+:class:`~mona_controller.controllers.beeclust.SwarmController`, is checked by one call
 (tests/unit/test_controller_speed_exact.py).
 """
 
@@ -18,15 +18,16 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from mona_controller.controller import (
+from mona_controller.controllers.base import Command, Controller
+from mona_controller.controllers.beeclust import (
     AVOID,
     CONTROLLER_STREAM,
     FOLLOW,
     TURN,
     WAIT,
-    ControllerParams,
+    BeeclustParams,
 )
-from mona_controller.controllers import Command, Controller
+from mona_controller.controllers.params import ControllerParams
 from mona_controller.mona import MonaParams
 
 
@@ -43,11 +44,11 @@ class Longhand:
 
     def __init__(self, params: ControllerParams, mona: MonaParams, robot_id: int,
                  seed: int) -> None:
-        self.params, self.mona = params, mona
+        self.params, self.mona = params.section(BeeclustParams), mona
         self.beta = params.speed / mona.wheel_unit_speed
         # An in-place turn's wheel command: turn_speed, the robot's own speed, or full.
-        turning = {'turn_speed': params.turn_speed, 'speed': params.speed,
-                   'full': math.inf}[params.turn_at]
+        turning = {'turn_speed': self.params.turn_speed, 'speed': params.speed,
+                   'full': math.inf}[self.params.turn_at]
         self.turn_command = min(turning / mona.wheel_unit_speed, mona.max_wheel_command)
         # Both wheels at +-turn_command turn the robot in place at this rate (rad/s).
         self.turn_rate = 2 * self.turn_command * mona.wheel_unit_speed / mona.wheel_separation
