@@ -29,8 +29,11 @@ MONA = MonaParams()
 def net(tmp_path, name, hidden, seed, **changes):
     """A stand_net section with random weights written to ``name``."""
     genome = np.random.default_rng(seed).normal(0.0, 1.5, genome_size(MONA.ir_count, hidden))
+    arrays = weights_from_genome(genome, MONA.ir_count, hidden)
+    arrays['w2'][2] *= 0.3  # a stand logit often within (-2, 2): p(a) strictly between 0, 1
+    arrays['b2'][2] *= 0.3
     path = tmp_path / name
-    save_weights(path, weights_from_genome(genome, MONA.ir_count, hidden))
+    save_weights(path, arrays)
     return ControllerParams.of(StandNetParams(hidden=hidden, weights=str(path), **changes),
                                kind='stand_net')
 
