@@ -250,3 +250,51 @@ def test_an_interrupted_openai_es_evolution_resumes_to_the_same_run(tmp_path):
         (tmp_path / 'whole' / 'best.npz').read_bytes()
     assert len({row['mean'] for row in whole}) == TINY['generations']  # the mean moves
     assert {row['sigma'] for row in whole} == {design.sigma}  # openai_es keeps sigma
+
+
+def test_validation_chooses_the_mean_stops_when_it_stops_improving_and_resumes(tmp_path):
+    from swarm_supervisor.evolution import evolve
+    from swarm_supervisor.evolution.compare import held_out_seeds
+    from swarm_supervisor.evolution.fitness import training_seeds
+    from swarm_supervisor.evolution.genomes import start_genome
+    from swarm_supervisor.evolution.validation import validation_seeds
+
+    design = load_design(write_design(
+        tmp_path / 'valid.yaml', kind='stand_net', start='drives', genomes=0, diagonal=True,
+        generations=30, duration=20.0, validation=2, validate_every=1, patience=2,
+        held_out=3, max_speed=0.08))
+    assert design.population == 4 + int(3 * np.log(design.genome_size))  # pycma's default
+    valid = validation_seeds(design)
+    assert len(set(valid)) == 2 and all(2**31 <= seed < 2**32 for seed in valid)
+    assert not set(valid) & ({s for g in range(30) for s in training_seeds(design, g)}
+                             | set(held_out_seeds(design)))
+    whole = evolve(dataclasses.replace(design, held_out=0), tmp_path / 'whole', shown=False)
+    scores = [row['validation'] for row in whole]
+    best = int(np.argmin(scores))
+    # It stopped once two validations in a row did not beat the best, well before 30.
+    assert len(whole) == best + 3 < 30 and min(scores[-2:]) >= scores[best]
+    chosen = json.loads((tmp_path / 'whole' / 'chosen.json').read_text())
+    assert chosen['generation'] == best and chosen['validation'] == scores[best]
+    assert chosen['validation_seeds'] == valid
+    assert whole[0]['best'] != whole[1]['best']
+    assert len({row['sigma'] for row in whole}) == len(whole)  # pycma adapts it
+
+    def stop_after_the_first(generation):
+        if generation == 0:
+            raise KeyboardInterrupt
+
+    parts = dataclasses.replace(design, held_out=0)
+    with pytest.raises(KeyboardInterrupt):
+        evolve(parts, tmp_path / 'parts', shown=False, on_checkpoint=stop_after_the_first)
+    resumed = evolve(parts, tmp_path / 'parts', shown=False)
+    drop = [{k: v for k, v in row.items() if k != 'wall_s'} for row in whole]
+    assert [{k: v for k, v in row.items() if k != 'wall_s'} for row in resumed] == drop
+    for name in ('best.npz', 'chosen.json', 'generations.csv'):
+        if name == 'generations.csv':
+            assert without_wall_time(tmp_path / 'parts') == without_wall_time(
+                tmp_path / 'whole')
+        else:
+            assert (tmp_path / 'parts' / name).read_bytes() == \
+                (tmp_path / 'whole' / name).read_bytes()
+    # The search started from a net that drives: both wheel biases 1, the stand's -1.
+    assert start_genome(design)[-3:].tolist() == [1.0, 1.0, -1.0]

@@ -320,9 +320,9 @@ def config_from_ros_yaml(document: Any, source: str = 'the configuration',
         raise ParameterError(f'{source}: {error}') from None
 
 
-#: Parameters naming a file that a relative path names relative to the parameter file
-#: holding it (not the current directory).
-FILE_RELATIVE = ('controller.network.weights', 'world.cue_file')
+#: Parameters naming a file: a relative path is relative to the parameter file giving it.
+FILE_RELATIVE = ('controller.network.weights', 'controller.stand_net.weights',
+                 'world.cue_file')
 
 
 def file_relative_values(document: Any, folder: Path) -> dict[str, str]:

@@ -44,6 +44,15 @@ class WorldParams:
     cleaning_peak: float = param(8.0, unit='cue units', low=0.0, high=255.0,
                                  doc='amount removed at the patch centre; offset (p, q) '
                                      'loses peak - sqrt(p^2 + q^2)')
+    cleaning_quorum: int = param(1, unit='robots', low=1, high=1000,
+                                 doc='k: a cleaning robot cleans at a tick only with at least '
+                                     'k - 1 other cleaning robots within cleaning_range (a '
+                                     "task needing several robots); 1: the paper's eq. 3, "
+                                     'every cleaning robot cleans')
+    cleaning_range: float = param(0.2, unit='m', low=0.0, high=100.0,
+                                  doc='r: how close (centre to centre) the other robots of a '
+                                      'cleaning group must be (read only when '
+                                      'cleaning_quorum > 1)')
     collision_slop: float = param(0.0005, unit='m', low=0.0, high=0.01,
                                   doc='allowed overlap of colliding bodies in pymunk')
     # Beyond the paper (docs/model.md "Leaks beyond the paper"); every default is the paper.

@@ -15,6 +15,7 @@ import numpy as np
 from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world.arena import pack
+from swarm_world.company import in_company
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
@@ -272,8 +273,13 @@ class World:
         self.cleaned = _NOBODY
         if crossed(before, now, self._cleaning_ns) and cleaning.any():
             self.cleaned = np.flatnonzero(cleaning)
-            self.field.clean_at(now, self.poses[self.cleaned])  # eq. 3, robot order
-            self._sensed = None
+            if self.params.cleaning_quorum > 1:  # only robots in a group clean (company.py)
+                self.cleaned = in_company(self.cleaned, self.poses,
+                                          self.params.cleaning_quorum,
+                                          self.params.cleaning_range)
+            if len(self.cleaned):
+                self.field.clean_at(now, self.poses[self.cleaned])  # eq. 3, robot order
+                self._sensed = None
         # A static field has no transport ticks: skip the call (a batch pays it per world).
         if self.field.dynamic and self.field.advance_to(now):
             self._sensed = None  # diffusion, evaporation, emission changed the cue

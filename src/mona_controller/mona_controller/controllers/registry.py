@@ -20,6 +20,8 @@ from typing import Any
 CONTROLLERS: dict[str, str] = {
     'beeclust': 'mona_controller.controllers.beeclust:SwarmController',
     'network': 'mona_controller.controllers.network:NetworkController',
+    'solo': 'mona_controller.controllers.solo:SoloController',
+    'stand_net': 'mona_controller.controllers.stand_net:StandNetController',
 }
 #: The entry-point group through which an installed package adds controller kinds
 #: (``name = 'module:Class'``): every process (a study's workers, every node) sees them.

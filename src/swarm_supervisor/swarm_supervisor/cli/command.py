@@ -28,6 +28,7 @@ COMMAND_MODULES = {
     'swarm_supervisor.cli.animate': ('animate',),
     'swarm_supervisor.cli.calibrate': ('calibrate',),
     'swarm_supervisor.cli.evolve': ('evolve',),
+    'swarm_supervisor.cli.heldout': ('heldout',),
     'swarm_supervisor.cli.launch': ('launch',),
 }
 

@@ -63,7 +63,12 @@ def run(args: argparse.Namespace) -> int:
         print('mona-swarm evolve: interrupted: the generations finished are kept; rerun the '
               'same command to resume', file=sys.stderr)
         return exits.INTERRUPTED
-    best = min(row['best'] for row in rows)
-    print(f'{args.out}: {len(rows)} generations, best fitness {best:.4f} '
-          f'(mean cue fraction); weights {args.out / "best.npz"}')
+    validated = [row['validation'] for row in rows if 'validation' in row]
+    if validated:
+        print(f'{args.out}: {len(rows)} generations, best validation of the mean '
+              f'{min(validated):.4f} (mean cue fraction); weights {args.out / "best.npz"}')
+    else:
+        best = min(row['best'] for row in rows)
+        print(f'{args.out}: {len(rows)} generations, best fitness {best:.4f} '
+              f'(mean cue fraction); weights {args.out / "best.npz"}')
     return exits.OK

@@ -10,7 +10,12 @@ cleans beside other robots (the post-evaluation's reading of a strategy).
   robot-steps that are not standing;
 - ``standing``: the fraction of robot-steps with both wheels commanded 0;
 - ``cleaning_beside_robot``: of the robot-steps that clean, the fraction whose IR ring sees
-  a robot (BEECLUST waits only after meeting one; a solitary cleaner needs none).
+  a robot (BEECLUST waits only after meeting one; a solitary cleaner needs none);
+- ``removed_per_tick``: the cue its cleaning removed, per robot cleaning at a cleaning tick
+  (whose cleaner was on), as a share of what one tick removes from a patch that holds at
+  least the amount everywhere (eq. 3's kernel summed): 1 is a full patch, 0 a tick on a
+  clean floor or, with ``world.cleaning_quorum`` > 1, a robot with too little company;
+- ``distance``: the mean distance a robot travelled over the episode (m).
 """
 
 from __future__ import annotations
@@ -19,15 +24,20 @@ import numpy as np
 
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import Episode
+from swarm_world.field import CueField
+from swarm_world.timing import crossed
 
 
 def behaviour(config: SwarmConfig) -> dict[str, float]:
     """The measures above over one whole episode of ``config``."""
     episode = Episode(config)
     world, mona = episode.world, config.mona
-    steps = cleaning = standing = beside = 0
-    forward = moving = 0.0
+    steps = cleaning = standing = beside = ticking = 0
+    forward = moving = distance = 0.0
+    removed = _count_removed(world.field)
+    tick_ns = round(config.world.cleaning_period * 1e9)
     while not episode.done:
+        before, poses = world.time_ns, world.poses.copy()
         if world.steps % episode.control_steps == 0:
             readings = world.sense()
             command = episode.controllers.step(readings.ground, readings.ranges,
@@ -44,9 +54,31 @@ def behaviour(config: SwarmConfig) -> dict[str, float]:
         beside += int(np.sum(command.cleaner & seen))
         forward += float(np.sum(wheels.mean(axis=1)))
         moving += float(np.sum(wheels.mean(axis=1)[~still]))
+        distance += float(np.sum(np.hypot(*(world.poses[:, :2] - poses[:, :2]).T)))
+        if crossed(before, world.time_ns, tick_ns):
+            ticking += int(np.sum(world.cleaning))
     robot_steps = steps * config.episode.population
+    patch = float(world.field.kernel.sum(dtype=np.float64))
     return {'cleaner_on': cleaning / robot_steps,
             'forward_speed': forward / robot_steps,
             'moving_speed': moving / max(robot_steps - standing, 1),
             'standing': standing / robot_steps,
-            'cleaning_beside_robot': beside / max(cleaning, 1)}
+            'cleaning_beside_robot': beside / max(cleaning, 1),
+            'removed_per_tick': removed[0] / patch / max(ticking, 1),
+            'distance': distance / config.episode.population}
+
+
+def _count_removed(field: CueField) -> list[float]:
+    """Make ``field`` add up what its cleaning removes (in a one-item list it returns): each
+    tick's transport is run first, then the cue's sum is taken before and after eq. 3."""
+    total = [0.0]
+    clean_at = field.clean_at
+
+    def counting(time_ns: int, poses: np.ndarray) -> None:
+        field.advance_to(time_ns - field.step_ns)  # what clean_at does first
+        before = float(field.cue.sum(dtype=np.float64))
+        clean_at(time_ns, poses)
+        total[0] += before - float(field.cue.sum(dtype=np.float64))
+
+    field.clean_at = counting  # type: ignore[method-assign]
+    return total

@@ -26,10 +26,16 @@ from swarm_supervisor.study.cluster import CONNECT_TIMEOUT, connect
 Portable = tuple[list[SwarmConfig], dict[str, bytes]]
 
 
+def weights_of(config: SwarmConfig) -> str:
+    """The weights file the episode's controller kind names ('' if none)."""
+    section = getattr(config.controller, config.controller.kind, None)
+    return str(getattr(section, 'weights', ''))
+
+
 def portable(configs: Sequence[SwarmConfig]) -> Portable:
     """A batch with the bytes of every weights file its episodes name."""
-    files = {config.controller.network.weights: Path(config.controller.network.weights)
-             .read_bytes() for config in configs if config.controller.network.weights}
+    files = {weights_of(config): Path(weights_of(config)).read_bytes()
+             for config in configs if weights_of(config)}
     return list(configs), files
 
 
@@ -43,9 +49,9 @@ def run_portable(func: Callable[[Sequence[SwarmConfig]], Any], task: Portable) -
         for k, (path, data) in enumerate(files.items()):
             local[path] = Path(scratch) / f'{k}_{Path(path).name}'
             local[path].write_bytes(data)
-        moved = [config.replace(controller={'network': {
-            'weights': str(local[config.controller.network.weights])}})
-            if config.controller.network.weights else config for config in configs]
+        moved = [config.replace(controller={config.controller.kind: {
+            'weights': str(local[weights_of(config)])}})
+            if weights_of(config) else config for config in configs]
         return func(moved)
 
 

@@ -1,8 +1,7 @@
 """A generation's fitness: every genome on the generation's training seeds, in batches.
 
-A genome becomes a weights file (:func:`~mona_controller.controllers.network_weights.
-save_weights`) and a
-parameter set with ``controller.kind: network``; its fitness is the mean over its episodes of
+A genome becomes a weights file and a parameter set of the design's controller kind
+(:mod:`swarm_supervisor.evolution.genomes`); its fitness is the mean over its episodes of
 the episode's mean cue fraction over time (the metrics' ``mean_cue_fraction`` at every
 sample: lower is better, a cleaner arena). The episodes of all genomes are cut into batches
 of at most ``design.batch`` and run with the batched engine
@@ -14,16 +13,16 @@ so the fitness does not depend on how the episodes are cut or where they run.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mona_controller.controllers.network_weights import save_weights, weights_from_genome
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_batch
 from swarm_supervisor.evolution.design import Design
+from swarm_supervisor.evolution.genomes import architecture, save_genome
 
 #: The metric a genome is scored on (swarm_metrics.metrics).
 METRIC = 'mean_cue_fraction'
@@ -40,10 +39,7 @@ def genome_config(design: Design, weights: str | Path, seed: int) -> SwarmConfig
     """The parameter set of one episode of the genome whose weights file is ``weights``."""
     return design.base.replace(
         episode={'population': design.robots, 'duration': design.duration, 'seed': seed},
-        controller={'kind': 'network', 'network': {
-            'hidden': design.hidden, 'recurrent': design.recurrent, 'weights': str(weights),
-            'weights_sha256': '', 'max_speed': design.max_speed,
-            'clean_stops': design.clean_stops}})
+        controller=architecture(design.kind).section(design, str(weights)))
 
 
 def episode_fitness(metrics: Sequence[dict[str, float]]) -> float:
@@ -60,13 +56,18 @@ def generation_configs(design: Design, genomes: np.ndarray, generation: int,
                        folder: Path) -> list[SwarmConfig]:
     """Every episode of a generation, genome after genome (seeds in order within each),
     writing each genome's weights into ``folder``."""
+    return genome_configs(design, genomes, training_seeds(design, generation), folder)
+
+
+def genome_configs(design: Design, genomes: np.ndarray, seeds: Sequence[int], folder: Path,
+                   name: str = 'genome') -> list[SwarmConfig]:
+    """Every genome on every one of ``seeds``, genome after genome, each genome's weights
+    written into ``folder`` as ``{name}_{i}.npz``."""
     folder.mkdir(parents=True, exist_ok=True)
-    seeds = training_seeds(design, generation)
     configs: list[SwarmConfig] = []
     for i, genome in enumerate(genomes):
-        path = folder / f'genome_{i}.npz'
-        save_weights(path, weights_from_genome(genome, design.base.mona.ir_count,
-                                               design.hidden, design.recurrent))
+        path = folder / f'{name}_{i}.npz'
+        save_genome(design, genome, path)
         configs.extend(genome_config(design, path, seed) for seed in seeds)
     return configs
 
@@ -80,15 +81,16 @@ def batches(configs: Sequence[SwarmConfig], size: int, jobs: int) -> list[list[S
 
 
 def run_scores(configs: Sequence[SwarmConfig], size: int, pool: Any | None,
-               jobs: int) -> list[float]:
-    """Each episode's fitness, in order, in batches of at most ``size`` on ``pool`` (a
-    multiprocessing pool of ``jobs`` processes or a
+               jobs: int, func: Callable[[list[SwarmConfig]], list[Any]] = run_configs
+               ) -> list[Any]:
+    """Each episode's fitness (or what ``func`` makes of a batch), in order, in batches of
+    at most ``size`` on ``pool`` (a multiprocessing pool of ``jobs`` processes or a
     :class:`~swarm_supervisor.evolution.cluster.ClusterPool`) or in this process."""
     cut = batches(configs, size, jobs)
     if pool is None:
-        scores = [run_configs(batch) for batch in cut]
+        scores = [func(batch) for batch in cut]
     else:
-        scores = pool.map(run_configs, cut, chunksize=1)
+        scores = pool.map(func, cut, chunksize=1)
     return [score for batch in scores for score in batch]
 
 

@@ -13,16 +13,24 @@ interrupted or not (wall times aside). The episodes run in this process, on a po
 spawned processes (``jobs``) or on the workers of a Dask scheduler (``scheduler``,
 :mod:`swarm_supervisor.evolution.cluster`), with the same scores on each.
 
-Outputs in the folder: ``generations.csv`` (generation, best, mean, worst, sigma, wall_s),
-``fitness.png``, ``best.npz`` (the best genome evaluated so far, as weights), ``design.yaml``
-(the design's checked values) and ``genomes/`` (the current generation's weights files);
-with ``held_out`` > 0, the post-evaluation's compare.csv, compare.json and compare.png
+With ``validation`` > 0 the optimiser's mean is scored on a fixed validation set every
+``validate_every`` generations (:mod:`swarm_supervisor.evolution.validation`), and the run
+stops early once ``patience`` validations in a row have not improved on the best.
+
+Outputs in the folder: ``generations.csv`` (generation, best, mean, worst, sigma, wall_s,
+and with validation the mean's ``validation`` score where it was validated),
+``fitness.png``, ``best.npz`` (as weights: the best genome evaluated so far, or with
+validation the mean of the best validation), ``chosen.json`` (with validation: which
+generation's mean best.npz is and its score), ``design.yaml`` (the design's checked values)
+and ``genomes/`` (the current generation's weights files); with ``held_out`` > 0, the
+post-evaluation's compare.csv, compare.json and compare.png
 (:mod:`swarm_supervisor.evolution.compare`).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import multiprocessing
 import os
 import pickle
@@ -35,11 +43,11 @@ import numpy as np
 import yaml
 from tqdm import tqdm
 
-from mona_controller.controllers.network_weights import save_weights, weights_from_genome
-from swarm_supervisor.evolution import strategies
+from swarm_supervisor.evolution import strategies, validation
 from swarm_supervisor.evolution.cluster import ClusterPool
 from swarm_supervisor.evolution.design import Design, EvolutionError
 from swarm_supervisor.evolution.fitness import evaluate
+from swarm_supervisor.evolution.genomes import save_genome, start_genome
 from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
 
@@ -49,9 +57,16 @@ CHECKPOINT = 'checkpoint.pkl'
 
 
 def new_strategy(design: Design) -> Any:
-    """The design's seeded optimiser (:mod:`.strategies`), its mean at zero weights."""
-    return strategies.new_strategy(design.strategy, design.genome_size, design.sigma,
-                                   design.genomes, design.seed, design.learning_rate)
+    """The design's seeded optimiser (:mod:`.strategies`), its mean at the design's start
+    (:func:`~swarm_supervisor.evolution.genomes.start_genome`)."""
+    return strategies.new_strategy(design.strategy, start_genome(design), design.sigma,
+                                   design.genomes, design.seed, design.learning_rate,
+                                   design.diagonal)
+
+
+def columns(design: Design) -> tuple[str, ...]:
+    """generations.csv's columns for ``design`` (``validation`` only where it validates)."""
+    return (*COLUMNS, 'validation') if design.validation else COLUMNS
 
 
 def write_atomically(path: Path, data: bytes) -> None:
@@ -77,9 +92,11 @@ def load_checkpoint(out: Path, design: Design) -> dict[str, Any] | None:
     return state
 
 
-def write_csv(out: Path, rows: list[dict[str, float]]) -> None:
-    """generations.csv, every generation so far."""
-    lines = [','.join(COLUMNS)] + [','.join(repr(row[c]) for c in COLUMNS) for row in rows]
+def write_csv(out: Path, rows: list[dict[str, float]],
+              names: tuple[str, ...] = COLUMNS) -> None:
+    """generations.csv, every generation so far (an empty cell where a row lacks a value)."""
+    lines = [','.join(names)] + [','.join(repr(row[c]) if c in row else '' for c in names)
+                                 for row in rows]
     write_atomically(out / 'generations.csv', ('\n'.join(lines) + '\n').encode())
 
 
@@ -100,6 +117,11 @@ def plot(out: Path, rows: list[dict[str, float]]) -> Path:
     x = [row['generation'] for row in rows]
     for column, style in (('best', '-'), ('mean', '--'), ('worst', ':')):
         axes.plot(x, [row[column] for row in rows], style, label=column)
+    validated = [row for row in rows if 'validation' in row]
+    if validated:
+        axes.plot([row['generation'] for row in validated],
+                  [row['validation'] for row in validated], 'o-', markersize=3,
+                  label="the optimiser's mean, validation")
     axes.set_xlabel('generation')
     axes.set_ylabel('mean cue fraction (lower is better)')
     axes.legend()
@@ -112,8 +134,23 @@ def plot(out: Path, rows: list[dict[str, float]]) -> Path:
 
 def save_best(out: Path, design: Design, genome: np.ndarray) -> str:
     """best.npz from a genome; its SHA-256."""
-    return save_weights(out / 'best.npz', weights_from_genome(
-        genome, design.base.mona.ir_count, design.hidden, design.recurrent))
+    return save_genome(design, genome, out / 'best.npz')
+
+
+def save_chosen(out: Path, design: Design, state: dict[str, Any]) -> None:
+    """best.npz: the mean of the best validation (and chosen.json, which one), or without
+    validation the best genome evaluated."""
+    if not design.validation:
+        save_best(out, design, state['best'][1])
+        return
+    if state['chosen'] is None:
+        return  # nothing validated yet
+    score, mean, generation = state['chosen']
+    digest = save_best(out, design, mean)
+    write_atomically(out / 'chosen.json', (json.dumps({
+        'generation': generation, 'validation': score,
+        'validation_seeds': validation.validation_seeds(design),
+        'best_npz_sha256': digest}, indent=2) + '\n').encode())
 
 
 def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = None,
@@ -162,8 +199,12 @@ def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool 
     if state is None:
         strategy = new_strategy(design)
         state = {'digest': design.digest(), 'strategy': strategy, 'generation': 0,
-                 'random': np.random.get_state(), 'rows': [], 'best': None}
-    elif state['generation'] > design.generations:
+                 'random': np.random.get_state(), 'rows': [], 'best': None,
+                 'validations': [], 'chosen': None}
+    else:
+        state.setdefault('validations', [])  # a checkpoint of a run before validation
+        state.setdefault('chosen', None)
+    if state['generation'] > design.generations:
         raise EvolutionError(f'{out} holds {state["generation"]} generations, more than '
                              f'evolve.generations = {design.generations}; raise it to '
                              'resume, or set it to the generations done')
@@ -175,6 +216,8 @@ def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool 
     with tqdm(total=design.generations, initial=state['generation'], desc='generations',
               unit='gen', disable=disable, file=sys.stderr) as bar:
         for generation in range(state['generation'], design.generations):
+            if validation.stopped(design, state['validations']):
+                break  # the validation score has stopped improving
             started = time.perf_counter()
             np.random.set_state(state['random'])
             genomes = np.array(strategy.ask())
@@ -183,13 +226,21 @@ def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool 
             best = int(np.argmin(scores))
             if state['best'] is None or scores[best] < state['best'][0]:
                 state['best'] = (scores[best], genomes[best].copy())
-            rows.append({'generation': generation, 'best': min(scores),
-                         'mean': float(np.mean(scores)), 'worst': max(scores),
-                         'sigma': float(strategy.sigma),
-                         'wall_s': round(time.perf_counter() - started, 3)})
+            row = {'generation': generation, 'best': min(scores),
+                   'mean': float(np.mean(scores)), 'worst': max(scores),
+                   'sigma': float(strategy.sigma)}
+            if validation.due(design, generation):
+                mean = np.array(strategy.mean, dtype=np.float64)
+                row['validation'] = validation.validate(design, mean, out / 'genomes', pool,
+                                                        jobs)
+                state['validations'].append((generation, row['validation']))
+                if state['chosen'] is None or row['validation'] < state['chosen'][0]:
+                    state['chosen'] = (row['validation'], mean, generation)
+            row['wall_s'] = round(time.perf_counter() - started, 3)
+            rows.append(row)
             state.update(generation=generation + 1, random=np.random.get_state())
-            save_best(out, design, state['best'][1])
-            write_csv(out, rows)
+            save_chosen(out, design, state)
+            write_csv(out, rows, columns(design))
             write_atomically(out / CHECKPOINT, pickle.dumps(state))
             bar.update(1)
             bar.set_postfix(best=f'{state["best"][0]:.4f}')

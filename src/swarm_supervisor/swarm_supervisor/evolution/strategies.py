@@ -29,13 +29,20 @@ BETA1, BETA2, EPSILON = 0.9, 0.999, 1e-8
 NOISE_STREAM = 0x0E5
 
 
-def cma_es(size: int, sigma: float, genomes: int, seed: int) -> Any:
-    """A seeded pycma CMA-ES with file logging and printing off, its mean at zero."""
+def cma_es(start: np.ndarray, sigma: float, genomes: int, seed: int,
+           diagonal: bool = False) -> Any:
+    """A seeded pycma CMA-ES with file logging and printing off, its mean at ``start``;
+    ``genomes`` 0 leaves the population at pycma's default for the size (its ``popsize``
+    option, 4 + 3 ln n) and ``diagonal`` keeps the covariance diagonal (its
+    ``CMA_diagonal``: sep-CMA-ES)."""
     import cma
 
-    options = {'seed': seed, 'popsize': genomes, 'verb_log': 0, 'verbose': -9,
-               'verb_disp': 0}
-    return cma.CMAEvolutionStrategy(np.zeros(size), sigma, options)
+    options: dict[str, Any] = {'seed': seed, 'verb_log': 0, 'verbose': -9, 'verb_disp': 0}
+    if genomes:
+        options['popsize'] = genomes
+    if diagonal:
+        options['CMA_diagonal'] = True
+    return cma.CMAEvolutionStrategy(np.array(start, dtype=np.float64), sigma, options)
 
 
 def centred_ranks(scores: Sequence[float]) -> np.ndarray:
@@ -47,7 +54,8 @@ def centred_ranks(scores: Sequence[float]) -> np.ndarray:
 
 
 class OpenAIES:
-    """OpenAI-ES over a genome of ``size`` weights, its mean starting at zero.
+    """OpenAI-ES over a genome of ``size`` weights, its mean starting at ``start`` (zero if
+    not given).
 
     ``genomes`` (even) per generation: ``genomes / 2`` noise vectors, each asked as
     ``mean + sigma * eps`` (the first half) and ``mean - sigma * eps`` (the second). ``sigma``
@@ -55,7 +63,7 @@ class OpenAIES:
     """
 
     def __init__(self, size: int, sigma: float, genomes: int, seed: int,
-                 learning_rate: float) -> None:
+                 learning_rate: float, start: np.ndarray | None = None) -> None:
         """A seeded strategy.
 
         Raises:
@@ -63,7 +71,7 @@ class OpenAIES:
         """
         if genomes % 2:
             raise ValueError(f'openai_es needs an even number of genomes, not {genomes}')
-        self.mean = np.zeros(size)
+        self.mean = np.zeros(size) if start is None else np.array(start, dtype=np.float64)
         self.sigma = float(sigma)
         self.genomes = genomes
         self.learning_rate = float(learning_rate)
@@ -104,9 +112,9 @@ class OpenAIES:
         self._noise = None
 
 
-def new_strategy(name: str, size: int, sigma: float, genomes: int, seed: int,
-                 learning_rate: float) -> Any:
-    """The strategy ``name`` (:data:`STRATEGIES`) for a fresh run."""
+def new_strategy(name: str, start: np.ndarray, sigma: float, genomes: int, seed: int,
+                 learning_rate: float, diagonal: bool = False) -> Any:
+    """The strategy ``name`` (:data:`STRATEGIES`) for a fresh run, its mean at ``start``."""
     if name == 'openai_es':
-        return OpenAIES(size, sigma, genomes, seed, learning_rate)
-    return cma_es(size, sigma, genomes, seed)
+        return OpenAIES(len(start), sigma, genomes, seed, learning_rate, start)
+    return cma_es(start, sigma, genomes, seed, diagonal)
