@@ -96,6 +96,16 @@ class Physics:
         self.poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
         self.twist = np.zeros((self.count, 3))  # (vx, vy, omega) after the last solve
 
+    def __del__(self) -> None:
+        # pymunk's bodies and shapes sit in reference cycles, so Python's cyclic collector frees
+        # them, in whatever thread it runs (a Dask client's event loop, say), while the space
+        # goes here, by reference count. A collection freeing a body while this thread freed
+        # its space aborted the process (both edit the space's lists): the space is emptied
+        # first, in the thread that drops it, so a body freed later touches no space.
+        space = getattr(self, 'space', None)
+        if space is not None:
+            space.remove(*space.shapes, *space.bodies)
+
     @staticmethod
     def _batched(fields: pymunk.batch.BodyFields, buffer: pymunk.batch.Buffer):
         """The argument block of pymunk's batched body iterators for ``buffer``."""
