@@ -15,6 +15,9 @@ A design is a YAML file with one mapping, ``calibrate``::
       confirm: {candidates: 3}     # the best screened trials, rerun on the full study (the
                                    # config's study section, or `study:` here)
       objective: {ratio_target: 0.43, ratio_weight: 1.0}
+      purpose: profile             # or existence: deliberately wide ranges that ask whether
+                                   # any model of the family reaches the paper; its best
+                                   # trial is written as best_trial.yaml, not as a profile
       parameters:                  # dotted schema key -> its range
         controller.alpha: {low: 2.0, high: 40.0, log: true}
         world.control_steps: {low: 1, high: 4}             # a whole-number parameter
@@ -39,14 +42,15 @@ from typing import Any
 import yaml
 
 from mona_controller.schema import ParameterError, from_mapping, spec_of, to_mapping
+from swarm_supervisor.analysis.speed_effect import PAPER_RATIO  # table 2's, re-exported
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
 
 #: The keys of the ``calibrate`` mapping.
 KEYS = ('config', 'seed', 'trials', 'batch', 'startup', 'screen', 'confirm', 'objective',
-        'parameters')
-#: The paper's ratio of the speed and population sums of squares of the mean cue (table 2:
-#: (67.144 x 1 df) / (39.383 x 4 df)).
-PAPER_RATIO = 67.144 * 1 / (39.383 * 4)
+        'purpose', 'parameters')
+#: What a search is for: a profile to run the model with (ranges that public material
+#: supports), or an existence question (wide ranges, defensible or not).
+PURPOSES = ('profile', 'existence')
 
 
 class CalibrationError(ParameterError):
@@ -91,6 +95,7 @@ class CalibrationDesign:
     candidates: int
     objective: Objective
     parameters: tuple[Range, ...]
+    purpose: str  #: one of :data:`PURPOSES`
     #: sha256 of the file's text and the base config's values: a search folder belongs to one
     #: design
     digest: str
@@ -247,6 +252,10 @@ def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
             raise CalibrationError(f'{_where("objective", name)} = {value!r}: expected a '
                                    f'{"positive" if positive else "non-negative"} number')
         numbers[name] = float(value)
+    purpose = body.get('purpose', PURPOSES[0])
+    if purpose not in PURPOSES:
+        raise CalibrationError(f'{_where("purpose")} = {purpose!r}: expected one of '
+                               f'{", ".join(PURPOSES)}')
     return CalibrationDesign(
         path=path, config=config,
         seed=_whole(body.get('seed', 1), _where('seed'), 0),
@@ -256,6 +265,6 @@ def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
         screen=_study(config.study, body.get('screen'), _where('screen')),
         confirm_study=_study(config.study, confirm.get('study'), _where('confirm', 'study')),
         candidates=_whole(confirm.get('candidates', 3), _where('confirm', 'candidates'), 0),
-        objective=Objective(**numbers), parameters=ranges,
+        objective=Objective(**numbers), parameters=ranges, purpose=purpose,
         digest=hashlib.sha256((text + json.dumps(config.to_dict(), sort_keys=True)).encode())
         .hexdigest())
