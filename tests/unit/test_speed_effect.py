@@ -100,4 +100,5 @@ def test_the_command_prints_the_effect_and_refuses_a_missing_file(tmp_path, caps
     out = capsys.readouterr().out
     assert 'N = 50 at 4 cm/s performs like N = 40.0 at 8 cm/s' in out
     assert f'| {np.round(power_law_ratio(2.0, 1.0), 3):.3f} |' in out
+    assert "| the paper's ratio: N^1 v^1.03 | 24.5 | 0.426 |" in out
     assert main([str(tmp_path / 'missing.csv')]) == 2
