@@ -125,6 +125,28 @@ def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path)
         (whole / 'best_profile.yaml').read_text().splitlines()[2:]
 
 
+def test_raising_or_lowering_trials_carries_on_or_stops_in_the_same_folder(tmp_path):
+    out = tmp_path / 'out'
+    assert main(['calibrate', str(write_design(tmp_path, trials=2, confirm={'candidates': 0})),
+                 '--out', str(out)]) == 0
+    assert list(trials(out)['trial']) == [0, 1]
+    # Raised: the same folder carries on, and the trials are an uninterrupted search's.
+    raised = write_design(tmp_path, trials=4, confirm={'candidates': 0})
+    assert main(['calibrate', str(raised), '--out', str(out)]) == 0
+    whole = tmp_path / 'whole'
+    whole.mkdir()
+    assert main(['calibrate', str(write_design(whole, trials=4, confirm={'candidates': 0})),
+                 '--out', str(whole / 'out')]) == 0
+    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out'))
+    # Lowered: the report covers the trials asked for, and confirms among them only.
+    lowered = write_design(tmp_path, trials=3, confirm={'candidates': 1})
+    assert main(['calibrate', str(lowered), '--out', str(out)]) == 0
+    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out').iloc[:3])
+    assert '3 trials of the screening study' in (out / 'calibration.md').read_text()
+    best = trials(out).sort_values(['loss', 'trial']).iloc[0]
+    assert [f.name for f in (out / 'confirm').iterdir()] == [f'trial_{best["trial"]:04d}']
+
+
 def test_another_seed_proposes_other_trials_and_a_folder_keeps_its_design(tmp_path):
     a = load_design(write_design(tmp_path))
     other = tmp_path / 'other'

@@ -48,6 +48,11 @@ from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_
 #: The keys of the ``calibrate`` mapping.
 KEYS = ('config', 'seed', 'trials', 'batch', 'startup', 'screen', 'confirm', 'objective',
         'purpose', 'parameters')
+#: The keys a search folder does not hold its design to: trial n is the same whatever the
+#: number of trials (its sampler is seeded with the seed and n), and the confirmations run
+#: in study folders of their own. Raise ``trials`` and the same command carries on; lower it
+#: to the trials scored to stop there and confirm.
+UNDIGESTED = ('trials', 'confirm')
 #: What a search is for: a profile to run the model with (ranges that public material
 #: supports), or an existence question (wide ranges, defensible or not).
 PURPOSES = ('profile', 'existence')
@@ -96,8 +101,9 @@ class CalibrationDesign:
     objective: Objective
     parameters: tuple[Range, ...]
     purpose: str  #: one of :data:`PURPOSES`
-    #: sha256 of the file's text and the base config's values: a search folder belongs to one
-    #: design
+    #: sha256 of what decides the screened trials (every key but ``trials`` and ``confirm``)
+    #: and the base config's values: a search folder belongs to one design, whose trial
+    #: count and confirmation may change (the trials are the same, whatever the count)
     digest: str
 
     def trial_config(self, values: Mapping[str, Any], study: StudyParams) -> SwarmConfig:
@@ -216,12 +222,12 @@ def load_design(path: str | Path) -> CalibrationDesign:
         raise CalibrationError(f'{path}: expected one mapping, calibrate: (see '
                                'ros_ws/config/designs/calibration.yaml)')
     try:
-        return _checked(path, _mapping(document['calibrate'], 'calibrate'), text)
+        return _checked(path, _mapping(document['calibrate'], 'calibrate'))
     except CalibrationError as error:
         raise CalibrationError(f'{path}: {error}') from None
 
 
-def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
+def _checked(path: Path, body: dict[str, Any]) -> CalibrationDesign:
     unknown = sorted(set(body) - set(KEYS))
     if unknown:
         raise CalibrationError(f'unknown key {_where(unknown[0])}; known: {", ".join(KEYS)}')
@@ -266,5 +272,6 @@ def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
         confirm_study=_study(config.study, confirm.get('study'), _where('confirm', 'study')),
         candidates=_whole(confirm.get('candidates', 3), _where('confirm', 'candidates'), 0),
         objective=Objective(**numbers), parameters=ranges, purpose=purpose,
-        digest=hashlib.sha256((text + json.dumps(config.to_dict(), sort_keys=True)).encode())
-        .hexdigest())
+        digest=hashlib.sha256(json.dumps(
+            [{key: value for key, value in body.items() if key not in UNDIGESTED},
+             config.to_dict()], sort_keys=True).encode()).hexdigest())

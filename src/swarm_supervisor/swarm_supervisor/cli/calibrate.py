@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         confirmed = confirm(design, args.out, candidates(results, design.candidates), claims,
                             **options)
     except KeyboardInterrupt:
-        told = len(load_results(args.out))
+        told = len(load_results(args.out, design.trials))
         print(f'mona-swarm calibrate: interrupted: {told} of {design.trials} trials scored and '
               'kept; rerun the same command to resume', file=sys.stderr)
         return exits.INTERRUPTED
