@@ -16,6 +16,7 @@ from swarm_supervisor.analysis.speed_effect import (
     equivalent_population,
     main,
     power_law_ratio,
+    power_law_speed_worth,
     speed_effect,
 )
 
@@ -91,6 +92,15 @@ def test_power_law_ratios_grow_with_what_speed_is_worth_in_robots():
     assert 0.05 < encounters < 0.15 < solitary < PAPER_RATIO
     # The same worth in robots gives about the same ratio, whatever the exponents.
     assert power_law_ratio(1.0, 0.5) == pytest.approx(encounters, rel=0.1)
+    # A swarm that barely cleans gives speed its largest share: in that limit the cue cleaned
+    # is k N v t, and for a = b = 1 the ratio is 5 (v_8 - v_4)^2 mean(N)^2 / (4 sum (N -
+    # mean(N))^2 mean(v)^2) = 5 x 0.04^2 x 30^2 / (4 x 1000 x 0.06^2) = 1/2.
+    assert power_law_ratio(1.0, 1.0, halves=(30, 0.08, 1e12)) == pytest.approx(0.5, rel=1e-6)
+    assert power_law_ratio(2.0, 1.0, halves=(30, 0.08, 1e12)) > encounters
+    # What the paper's ratio needs a doubled speed to be worth: about twice the robots.
+    b = power_law_speed_worth()
+    assert power_law_ratio(1.0, b) == pytest.approx(PAPER_RATIO)
+    assert 1.9 < 2 ** b < 2.1
 
 
 def test_the_command_prints_the_effect_and_refuses_a_missing_file(tmp_path, capsys):
@@ -100,5 +110,6 @@ def test_the_command_prints_the_effect_and_refuses_a_missing_file(tmp_path, caps
     out = capsys.readouterr().out
     assert 'N = 50 at 4 cm/s performs like N = 40.0 at 8 cm/s' in out
     assert f'| {np.round(power_law_ratio(2.0, 1.0), 3):.3f} |' in out
-    assert "| the paper's ratio: N^1 v^1.03 | 24.5 | 0.426 |" in out
+    assert '| N = 30 at 8 cm/s halving the cue at 1500 s | N = 24.5 (speed worth x 2.04) |' \
+        in out
     assert main([str(tmp_path / 'missing.csv')]) == 2

@@ -41,6 +41,10 @@ from swarm_supervisor.analysis.anova import anova_sample
 #: freedom (five populations, two speeds).
 PAPER_F = {'population': 39.383, 'speed': 67.144}
 PAPER_DF = {'population': 4, 'speed': 1}
+#: Fig. 4a: N = 30 at 8 cm/s has halved the cue by 1500 s; and a halving time so long that
+#: the swarm barely cleans (the limit :func:`power_law_ratio` approaches).
+FIG4_HALVING = 1500.0
+BARELY_CLEANS = 1e12
 #: The paper's SS_speed / SS_population of the mean cue (0.426).
 PAPER_RATIO = PAPER_F['speed'] * PAPER_DF['speed'] / (PAPER_F['population'] *
                                                       PAPER_DF['population'])
@@ -125,26 +129,31 @@ def power_law_ratio(a: float, b: float, *, populations: Sequence[int] = (10, 20,
                     ) -> float:
     """SS_speed / SS_population of the mean cue in table 2's design (``levels`` time levels
     of an episode of ``duration``) for a cue that decays as exp(-k N^a v^b t), k such that the
-    cell ``halves`` = (N, v, t) has half its cue left at t."""
+    cell ``halves`` = (N, v, t) has half its cue left at t (a t of, say, 1e12 s gives the
+    limit of a swarm that barely cleans)."""
     n = np.asarray(populations, dtype=float)[:, None, None]
     v = np.asarray(speeds, dtype=float)[None, :, None]
     t = duration * np.arange(1, levels + 1)[None, None, :] / levels
     population, speed, at = halves
     k = math.log(2) / (at * population ** a * speed ** b)
-    cue = np.exp(-k * n ** a * v ** b * t)
-    grand = cue.mean()
-    ss_speed = cue.shape[0] * levels * float(((cue.mean(axis=(0, 2)) - grand) ** 2).sum())
-    ss_population = cue.shape[1] * levels * float(((cue.mean(axis=(1, 2)) - grand) ** 2)
-                                                  .sum())
+    cleaned = -np.expm1(-k * n ** a * v ** b * t)  # 1 - the cue left, exact when tiny
+    grand = cleaned.mean()
+    ss_speed = cleaned.shape[0] * levels * float(((cleaned.mean(axis=(0, 2)) - grand) ** 2)
+                                                 .sum())
+    ss_population = cleaned.shape[1] * levels * float(((cleaned.mean(axis=(1, 2)) - grand)
+                                                       ** 2).sum())
     return ss_speed / ss_population
 
 
-def power_law_speed_worth(target: float = PAPER_RATIO, a: float = 1.0) -> float:
-    """The exponent b for which :func:`power_law_ratio` (a, b) is ``target``: with a = 1,
-    doubling the speed is then worth 2^b times the robots."""
+def power_law_speed_worth(target: float = PAPER_RATIO, a: float = 1.0,
+                          halving: float = FIG4_HALVING) -> float:
+    """The exponent b for which :func:`power_law_ratio` (a, b) is ``target`` when N = 30 at
+    8 cm/s halves the cue at ``halving`` s: doubling the speed is then worth 2^(b/a) times
+    the robots."""
     from scipy.optimize import brentq
 
-    return float(brentq(lambda b: power_law_ratio(a, b) - target, 0.0, 4.0 * a))
+    return float(brentq(lambda b: power_law_ratio(a, b, halves=(30, 0.08, halving))
+                        - target, 0.0, 6.0 * a))
 
 
 def describe(effect: SpeedEffect) -> str:
@@ -162,24 +171,35 @@ def describe(effect: SpeedEffect) -> str:
             'effects linear in N; docs/reproduction.md).')
 
 
-#: The cleaning regimes :func:`main` prints: name, a, b (cleaning rate ~ N^a v^b).
+#: The cleaning regimes :func:`regime_table` prints: name, a, b (cleaning rate ~ N^a v^b).
 REGIMES = (('taxis-limited, speed changes nothing at the source', 1.0, 0.0),
            ('encounter-limited, dilute (pairs of moving robots)', 2.0, 1.0),
+           ('encounter-limited, waiting robots drawing more encounters', 3.0, 1.0),
            ('between the two', 1.5, 1.0),
            ('each robot cleans alone as it drives', 1.0, 1.0))
 
 
 def regime_table() -> list[str]:
-    """The ratio of each cleaning regime (:data:`REGIMES`) and the speed worth the paper's
-    ratio needs, as the lines of a Markdown table."""
+    """As Markdown lines: the ratio of each cleaning regime (:data:`REGIMES`) when N = 30 at
+    8 cm/s halves the cue at 1500 s and when the swarm barely cleans; then what the paper's
+    ratio needs a doubled speed to be worth, for a = 1, 2, 3."""
+    halving, barely = ((30, 0.08, FIG4_HALVING), (30, 0.08, BARELY_CLEANS))
     lines = ['| cleaning rate ~ | N = 50 at 4 cm/s performs like N at 8 cm/s | '
-             'SS_speed / SS_population |', '|---|---|---|']
+             'SS_speed / SS_population, N = 30 at 8 cm/s halving the cue at 1500 s | '
+             'the same, as the cleaning vanishes |', '|---|---|---|---|']
     for name, a, b in REGIMES:
         lines.append(f'| {name}: N^{a:g} v^{b:g} | {50 * 2 ** (-b / a):.1f} | '
-                     f'{power_law_ratio(a, b):.3f} |')
-    b = power_law_speed_worth()
-    lines.append(f"| the paper's ratio: N^1 v^{b:.2f} | {50 * 2 ** -b:.1f} | "
-                 f'{PAPER_RATIO:.3f} |')
+                     f'{power_law_ratio(a, b, halves=halving):.3f} | '
+                     f'{power_law_ratio(a, b, halves=barely):.3f} |')
+    lines += ['', f"| the paper's {PAPER_RATIO:.3f} needs, with cleaning rate ~ N^a v^b | "
+              'a = 1 | a = 2 | a = 3 |', '|---|---|---|---|']
+    for label, at in (('N = 30 at 8 cm/s halving the cue at 1500 s', FIG4_HALVING),
+                      ('as the cleaning vanishes', BARELY_CLEANS)):
+        cells = []
+        for a in (1.0, 2.0, 3.0):
+            b = power_law_speed_worth(a=a, halving=at)
+            cells.append(f'N = {50 * 2 ** (-b / a):.1f} (speed worth x {2 ** (b / a):.2f})')
+        lines.append(f'| {label} | ' + ' | '.join(cells) + ' |')
     return lines
 
 
