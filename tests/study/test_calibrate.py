@@ -69,7 +69,29 @@ def test_a_search_runs_scores_confirms_and_writes_a_profile(tmp_path):
     assert profile.controller.beeclust.alpha == row['controller.beeclust.alpha']
     assert profile.controller.beeclust.avoid == row['controller.beeclust.avoid']
     assert profile.world.step_period == row['world.step_period']
-    assert 'The best profile' in (out / 'calibration.md').read_text()
+    report = (out / 'calibration.md').read_text()
+    assert 'The best profile' in report and 'Existence search' not in report
+    assert not (out / 'best_trial.yaml').exists()
+    # Each claim's tally is the number of trials whose failed claims do not name it.
+    failed = [str(names).split() for names in table['failed'].fillna('')]
+    for claim in ('fig4-more-robots-8cm', 'table2-factor-order'):
+        held = sum(claim not in names for names in failed)
+        assert f'| `{claim}` | {held} | 4 |' in report
+
+
+def test_an_existence_search_is_labelled_and_writes_no_profile(tmp_path):
+    design = write_design(tmp_path, purpose='existence', trials=2, startup=2,
+                          confirm={'candidates': 0})
+    out = tmp_path / 'out'
+    assert main(['calibrate', str(design), '--out', str(out)]) == 0
+    report = (out / 'calibration.md').read_text()
+    assert report.startswith('# Existence search: tiny.yaml')
+    assert 'An existence search, not a profile' in report and '## The best trial' in report
+    assert not (out / 'best_profile.yaml').exists()
+    best = (out / 'best_trial.yaml').read_text()
+    assert best.startswith('# The best trial of the existence search (not a profile')
+    row = trials(out).sort_values(['loss', 'trial']).iloc[0]
+    assert load_config(out / 'best_trial.yaml').controller.beeclust.alpha == row['controller.beeclust.alpha']
 
 
 def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path):
@@ -101,6 +123,28 @@ def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path)
     pd.testing.assert_frame_equal(trials(broken), trials(whole))
     assert (broken / 'best_profile.yaml').read_text().splitlines()[2:] == \
         (whole / 'best_profile.yaml').read_text().splitlines()[2:]
+
+
+def test_raising_or_lowering_trials_carries_on_or_stops_in_the_same_folder(tmp_path):
+    out = tmp_path / 'out'
+    assert main(['calibrate', str(write_design(tmp_path, trials=2, confirm={'candidates': 0})),
+                 '--out', str(out)]) == 0
+    assert list(trials(out)['trial']) == [0, 1]
+    # Raised: the same folder carries on, and the trials are an uninterrupted search's.
+    raised = write_design(tmp_path, trials=4, confirm={'candidates': 0})
+    assert main(['calibrate', str(raised), '--out', str(out)]) == 0
+    whole = tmp_path / 'whole'
+    whole.mkdir()
+    assert main(['calibrate', str(write_design(whole, trials=4, confirm={'candidates': 0})),
+                 '--out', str(whole / 'out')]) == 0
+    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out'))
+    # Lowered: the report covers the trials asked for, and confirms among them only.
+    lowered = write_design(tmp_path, trials=3, confirm={'candidates': 1})
+    assert main(['calibrate', str(lowered), '--out', str(out)]) == 0
+    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out').iloc[:3])
+    assert '3 trials of the screening study' in (out / 'calibration.md').read_text()
+    best = trials(out).sort_values(['loss', 'trial']).iloc[0]
+    assert [f.name for f in (out / 'confirm').iterdir()] == [f'trial_{best["trial"]:04d}']
 
 
 def test_another_seed_proposes_other_trials_and_a_folder_keeps_its_design(tmp_path):
@@ -137,6 +181,7 @@ def test_another_seed_proposes_other_trials_and_a_folder_keeps_its_design(tmp_pa
     ({'trials': 0}, r'calibrate.trials = 0: expected a whole number >= 1'),
     ({'screen': {'speeds': [8]}}, r'calibrate.screen: study.speeds\[0\] = 8.0 is out of range'),
     ({'objective': {'ratio_target': -1}}, 'calibrate.objective.ratio_target = -1'),
+    ({'purpose': 'tuning'}, "calibrate.purpose = 'tuning': expected one of profile, existence"),
 ])
 def test_a_bad_design_is_refused_naming_the_key(tmp_path, capsys, changes, message):
     design = write_design(tmp_path, **changes)

@@ -15,7 +15,7 @@ import pandas as pd
 
 from swarm_supervisor import study
 from swarm_supervisor.analysis import anova as anova_tables
-from swarm_supervisor.analysis import figures
+from swarm_supervisor.analysis import figures, speed_effect
 
 ANOVA_FILES = {'mean_cue': 'anova_cue.csv', 'coherency': 'anova_coherency.csv'}
 ALPHA = 0.05  #: significance level for the reading of the ANOVA tables
@@ -135,6 +135,11 @@ def reading(table: pd.DataFrame, tables: dict[str, pd.DataFrame]) -> list[str]:
         lines += curve_reading(table)
     lines.append(_anova_claim('the mean cue', tables['mean_cue']))
     lines.append(_anova_claim('coherency', tables['coherency']))
+    if not study.design_factors(table):  # a sweep's levels are different models
+        try:
+            lines.append(speed_effect.describe(speed_effect.speed_effect(table)))
+        except ValueError:  # one speed, or an unbalanced design: no such reading
+            pass
     return lines
 
 

@@ -5,10 +5,10 @@ from swarm_supervisor.exports import lazy_exports
 
 _WHERE = {
     **dict.fromkeys(('CalibrationDesign', 'CalibrationError', 'Objective', 'PAPER_RATIO',
-                     'Range', 'load_design'), 'design'),
+                     'PURPOSES', 'Range', 'load_design'), 'design'),
     **dict.fromkeys(('Score', 'score', 'speed_population_ratio'), 'objective'),
     **dict.fromkeys(('TrialResult', 'load_results', 'run_search'), 'search'),
-    **dict.fromkeys(('candidates', 'confirm', 'write_report'), 'report'),
+    **dict.fromkeys(('best_file', 'candidates', 'confirm', 'write_report'), 'report'),
 }
 __all__ = sorted(_WHERE)
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE)

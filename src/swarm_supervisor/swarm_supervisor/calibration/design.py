@@ -15,8 +15,11 @@ A design is a YAML file with one mapping, ``calibrate``::
       confirm: {candidates: 3}     # the best screened trials, rerun on the full study (the
                                    # config's study section, or `study:` here)
       objective: {ratio_target: 0.43, ratio_weight: 1.0}
+      purpose: profile             # or existence: deliberately wide ranges that ask whether
+                                   # any model of the family reaches the paper; its best
+                                   # trial is written as best_trial.yaml, not as a profile
       parameters:                  # dotted schema key -> its range
-        controller.alpha: {low: 2.0, high: 40.0, log: true}
+        controller.beeclust.alpha: {low: 2.0, high: 40.0, log: true}
         world.control_steps: {low: 1, high: 4}             # a whole-number parameter
         sensing.ground_transfer: {choices: [linear, webots]}
 
@@ -38,15 +41,21 @@ from typing import Any
 
 from mona_controller.keys import leaf
 from mona_controller.schema import ParameterError, from_mapping, to_mapping
+from swarm_supervisor.analysis.speed_effect import PAPER_RATIO  # table 2's, re-exported
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
 from swarm_supervisor.yaml_text import parse_yaml
 
 #: The keys of the ``calibrate`` mapping.
 KEYS = ('config', 'seed', 'trials', 'batch', 'startup', 'screen', 'confirm', 'objective',
-        'parameters')
-#: The paper's ratio of the speed and population sums of squares of the mean cue (table 2:
-#: (67.144 x 1 df) / (39.383 x 4 df)).
-PAPER_RATIO = 67.144 * 1 / (39.383 * 4)
+        'purpose', 'parameters')
+#: The keys a search folder does not hold its design to: trial n is the same whatever the
+#: number of trials (its sampler is seeded with the seed and n), and the confirmations run
+#: in study folders of their own. Raise ``trials`` and the same command carries on; lower it
+#: to the trials scored to stop there and confirm.
+UNDIGESTED = ('trials', 'confirm')
+#: What a search is for: a profile to run the model with (ranges that public material
+#: supports), or an existence question (wide ranges, defensible or not).
+PURPOSES = ('profile', 'existence')
 
 
 class CalibrationError(ParameterError):
@@ -58,7 +67,7 @@ class Range:
     """The range of one parameter: numbers between ``low`` and ``high`` (on a log scale if
     ``log``; whole numbers with ``step`` for an int parameter), or one of ``choices``."""
 
-    key: str  #: dotted schema key, e.g. ``controller.alpha``
+    key: str  #: dotted schema key, e.g. ``controller.beeclust.alpha``
     kind: str  #: 'float', 'int' or 'choice'
     low: float = 0.0
     high: float = 0.0
@@ -91,8 +100,10 @@ class CalibrationDesign:
     candidates: int
     objective: Objective
     parameters: tuple[Range, ...]
-    #: sha256 of the file's text and the base config's values: a search folder belongs to one
-    #: design
+    purpose: str  #: one of :data:`PURPOSES`
+    #: sha256 of what decides the screened trials (every key but ``trials`` and ``confirm``)
+    #: and the base config's values: a search folder belongs to one design, whose trial
+    #: count and confirmation may change (the trials are the same, whatever the count)
     digest: str
 
     def trial_config(self, values: Mapping[str, Any], study: StudyParams) -> SwarmConfig:
@@ -199,12 +210,12 @@ def load_design(path: str | Path) -> CalibrationDesign:
         raise CalibrationError(f'{path}: expected one mapping, calibrate: (see '
                                'ros_ws/config/designs/calibration.yaml)')
     try:
-        return _checked(path, _mapping(document['calibrate'], 'calibrate'), text)
+        return _checked(path, _mapping(document['calibrate'], 'calibrate'))
     except CalibrationError as error:
         raise CalibrationError(f'{path}: {error}') from None
 
 
-def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
+def _checked(path: Path, body: dict[str, Any]) -> CalibrationDesign:
     unknown = sorted(set(body) - set(KEYS))
     if unknown:
         raise CalibrationError(f'unknown key {_where(unknown[0])}; known: {", ".join(KEYS)}')
@@ -235,6 +246,10 @@ def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
             raise CalibrationError(f'{_where("objective", name)} = {value!r}: expected a '
                                    f'{"positive" if positive else "non-negative"} number')
         numbers[name] = float(value)
+    purpose = body.get('purpose', PURPOSES[0])
+    if purpose not in PURPOSES:
+        raise CalibrationError(f'{_where("purpose")} = {purpose!r}: expected one of '
+                               f'{", ".join(PURPOSES)}')
     return CalibrationDesign(
         path=path, config=config,
         seed=_whole(body.get('seed', 1), _where('seed'), 0),
@@ -244,6 +259,7 @@ def _checked(path: Path, body: dict[str, Any], text: str) -> CalibrationDesign:
         screen=_study(config.study, body.get('screen'), _where('screen')),
         confirm_study=_study(config.study, confirm.get('study'), _where('confirm', 'study')),
         candidates=_whole(confirm.get('candidates', 3), _where('confirm', 'candidates'), 0),
-        objective=Objective(**numbers), parameters=ranges,
-        digest=hashlib.sha256((text + json.dumps(config.to_dict(), sort_keys=True)).encode())
-        .hexdigest())
+        objective=Objective(**numbers), parameters=ranges, purpose=purpose,
+        digest=hashlib.sha256(json.dumps(
+            [{key: value for key, value in body.items() if key not in UNDIGESTED},
+             config.to_dict()], sort_keys=True).encode()).hexdigest())

@@ -13,7 +13,7 @@ import yaml
 
 from mona_controller.schema import unflatten
 from swarm_supervisor import study
-from swarm_supervisor.analysis.claims import Claim
+from swarm_supervisor.analysis.claims import Claim, paper_claims
 from swarm_supervisor.analysis.report import analyse, markdown_table
 from swarm_supervisor.calibration.design import CalibrationDesign
 from swarm_supervisor.calibration.objective import score
@@ -23,6 +23,13 @@ TRIALS_CSV = 'trials.csv'
 CONFIRM_DIR = 'confirm'
 REPORT_FILE = 'calibration.md'
 PROFILE_FILE = 'best_profile.yaml'
+#: An existence search's best trial: a parameter file too, but not a profile to run with.
+BEST_TRIAL_FILE = 'best_trial.yaml'
+
+
+def best_file(design: CalibrationDesign) -> str:
+    """The name of the parameter file holding the best trial's values."""
+    return BEST_TRIAL_FILE if design.purpose == 'existence' else PROFILE_FILE
 
 
 def candidates(results: Sequence[TrialResult], count: int) -> list[TrialResult]:
@@ -60,7 +67,9 @@ def profile_text(design: CalibrationDesign, best: TrialResult, where: str) -> st
     """A parameter file setting the best trial's values (every other parameter as the base)."""
     sections = unflatten(best.values)
     held = len(best.score.held)
-    header = (f'# Calibrated by `mona-swarm calibrate {design.path}` (trial {best.number}, '
+    verb = ('The best trial of the existence search (not a profile: its ranges were chosen '
+            'wide, not defensible) of' if design.purpose == 'existence' else 'Calibrated by')
+    header = (f'# {verb} `mona-swarm calibrate {design.path}` (trial {best.number}, '
               f'{where}):\n# {held} of {held + len(best.score.failed)} claims hold, '
               f'SS_speed / SS_population = {best.score.ratio:.3g} '
               f'(target {design.objective.ratio_target:.3g}). Every other parameter is the '
@@ -70,14 +79,21 @@ def profile_text(design: CalibrationDesign, best: TrialResult, where: str) -> st
 
 def write_report(design: CalibrationDesign, out: Path, results: Sequence[TrialResult],
                  confirmed: Sequence[TrialResult], started: float) -> Path:
-    """trials.csv, best_profile.yaml and calibration.md; returns the report's path."""
+    """trials.csv, the best trial's parameter file (:func:`best_file`) and calibration.md;
+    returns the report's path."""
     trials_table(results).to_csv(out / TRIALS_CSV, index=False)
     best, where = ((min(confirmed, key=lambda r: (r.score.loss, r.number)), 'the full study')
                    if confirmed else
                    (min(results, key=lambda r: (r.score.loss, r.number)), 'the screening'))
-    (out / PROFILE_FILE).write_text(profile_text(design, best, where))
-    lines = [f'# Calibration: {design.path.name}', '',
-             f'{len(results)} trials of the screening study '
+    best_name = best_file(design)
+    (out / best_name).write_text(profile_text(design, best, where))
+    existence = design.purpose == 'existence'
+    lines = [f'# {"Existence search" if existence else "Calibration"}: {design.path.name}', '']
+    if existence:
+        lines += ['*An existence search, not a profile: its ranges are deliberately wide, '
+                  'defensible or not, to ask whether any model of this family reaches the '
+                  "paper's claims. Its best trial is no model to run the study with.*", '']
+    lines += [f'{len(results)} trials of the screening study '
              f'({_study_text(design.screen)}), seed {design.seed}, in '
              f"{time.perf_counter() - started:.0f} s. A trial's loss is the number of the "
              "paper's claims that do not hold plus "
@@ -90,7 +106,10 @@ def write_report(design: CalibrationDesign, out: Path, results: Sequence[TrialRe
                 else f'{parameter.low:g} .. {parameter.high:g}'
                 + (' (log)' if parameter.log else ''))
         lines.append(f'- `{parameter.key}`: {span}')
-    lines += ['', '## The best screened trials', '',
+    lines += ['', '## Each claim: in how many screened trials it held', '',
+              markdown_table(claim_tally(results)), '',
+              f'SS_speed / SS_population over the trials: {_ratio_span(design, results)}.', '',
+              '## The best screened trials', '',
               markdown_table(_shown(trials_table(sorted(results, key=lambda r: (
                   r.score.loss, r.number))[:10]))), '']
     if confirmed:
@@ -98,8 +117,8 @@ def write_report(design: CalibrationDesign, out: Path, results: Sequence[TrialRe
                   "Each candidate's study, with its report.md, is in "
                   f'`{CONFIRM_DIR}/trial_<n>/`.', '',
                   markdown_table(_shown(trials_table(confirmed))), '']
-    lines += ['## The best profile', '',
-              f'Trial {best.number} on {where}: [`{PROFILE_FILE}`]({PROFILE_FILE}) sets',
+    lines += [f'## The best {"trial" if existence else "profile"}', '',
+              f'Trial {best.number} on {where}: [`{best_name}`]({best_name}) sets',
               '', *(f'- `{key}`: {value}' for key, value in best.values.items()), '',
               f'Claims that hold ({len(best.score.held)}): '
               + (', '.join(f'`{c}`' for c in best.score.held) or 'none') + '.', '',
@@ -108,6 +127,28 @@ def write_report(design: CalibrationDesign, out: Path, results: Sequence[TrialRe
     path = out / REPORT_FILE
     path.write_text('\n'.join(lines))
     return path
+
+
+def claim_tally(results: Sequence[TrialResult]) -> pd.DataFrame:
+    """Per claim (the paper's claims in their file's order, then any other), how many of the
+    trials it held in."""
+    seen = {name for r in results for name in (*r.score.held, *r.score.failed)}
+    paper = [claim.id for claim in paper_claims() if claim.id in seen]
+    names = paper + sorted(seen - set(paper))
+    return pd.DataFrame([{'claim': f'`{name}`',
+                          'held in': sum(name in r.score.held for r in results),
+                          'of trials': len(results)} for name in names])
+
+
+def _ratio_span(design: CalibrationDesign, results: Sequence[TrialResult]) -> str:
+    formed = [r for r in results if not math.isnan(r.score.ratio)]
+    if not formed:
+        return 'never formed'
+    target = design.objective.ratio_target
+    nearest = min(formed, key=lambda r: (abs(math.log10(r.score.ratio / target)), r.number))
+    return (f'{min(r.score.ratio for r in formed):.3g} to '
+            f'{max(r.score.ratio for r in formed):.3g}; nearest to {target:.3g}: '
+            f'{nearest.score.ratio:.3g} (trial {nearest.number})')
 
 
 def _shown(frame: pd.DataFrame) -> pd.DataFrame:

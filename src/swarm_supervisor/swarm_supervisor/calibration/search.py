@@ -7,7 +7,9 @@ cluster) like one study's. Reproducible: trial n is always asked after trials 0 
 earlier batches are told, in trial order, from a sampler seeded with (seed, n); a trial asked
 but not told when the search was interrupted is run again with the values it was given (its
 finished episodes are kept), never asked anew, so an interrupted search equals an
-uninterrupted one, trial for trial.
+uninterrupted one, trial for trial. For the same reason the number of trials is not part of
+the design a folder holds: raised, the search carries on; lowered, it stops at the trials
+asked for (those beyond are kept, and used again if it is raised).
 """
 
 from __future__ import annotations
@@ -121,10 +123,13 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
     study = open_search(design, out)
     distributions = {p.key: distribution(p) for p in design.parameters}
     while True:
-        # A batch asked but not told (an interrupted search) is run again with its values.
+        # A batch asked but not told (an interrupted search) is run again with its values;
+        # trials beyond the design's count (it was lowered) are left as they are.
         batch = [(t.number, dict(t.params)) for t in
-                 study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))]
-        told = len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)))
+                 study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+                 if t.number < design.trials]
+        told = sum(t.number < design.trials for t in
+                   study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)))
         if not batch:
             if told >= design.trials:
                 break
@@ -140,13 +145,14 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
                            keep_episodes=keep_episodes)
         for result in sorted(results, key=lambda r: r.number):
             study.tell(result.number, result.score.loss)
-            best = min(load_results(out), key=lambda r: (r.score.loss, r.number))
+            best = min(load_results(out, design.trials),
+                       key=lambda r: (r.score.loss, r.number))
             say(f'trial {result.number} ({result.number + 1} of {design.trials}): loss '
                 f'{result.score.loss:.3f} '
                 f'({len(result.score.held)}/{len(result.score.held) + len(result.score.failed)} '
                 f'claims, ratio {result.score.ratio:.3g}) {_values_text(result.values)}; '
                 f'best so far: trial {best.number} ({best.score.loss:.3f})')
-    return load_results(out)
+    return load_results(out, design.trials)
 
 
 def _sampler(design: CalibrationDesign, number: int):
@@ -194,8 +200,10 @@ def evaluate(design: CalibrationDesign, out: Path, batch: Sequence[tuple[int, di
     return results
 
 
-def load_results(out: Path) -> list[TrialResult]:
-    """The scored trials of a search folder, in trial order."""
-    return sorted((TrialResult.from_json(path.read_text())
-                   for path in (out / TRIALS_DIR).glob(f'*/{TRIAL_FILE}')),
+def load_results(out: Path, count: int | None = None) -> list[TrialResult]:
+    """The scored trials of a search folder, in trial order (only trials 0 .. count - 1 if
+    ``count`` is given)."""
+    results = (TrialResult.from_json(path.read_text())
+               for path in (out / TRIALS_DIR).glob(f'*/{TRIAL_FILE}'))
+    return sorted((r for r in results if count is None or r.number < count),
                   key=lambda r: r.number)

@@ -22,7 +22,8 @@ def register(subparsers) -> None:
                     'the reduced screening study with the values the search proposes and is '
                     "scored by the paper's claims and table 2's SS_speed / SS_population; the "
                     'best candidates are then rerun on the full study. Writes trials.csv, '
-                    'calibration.md and best_profile.yaml into --out; an interrupted search '
+                    'calibration.md and best_profile.yaml (an existence search: '
+                    'best_trial.yaml) into --out; an interrupted search '
                     'resumes from --out (docs/model.md, "Calibration").',
         epilog=exits.HELP + '.')
     parser.add_argument('design', type=Path, metavar='DESIGN',
@@ -46,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     """Search, confirm, report."""
     from swarm_supervisor.analysis.claims import paper_claims
     from swarm_supervisor.calibration import (
+        best_file,
         candidates,
         confirm,
         load_design,
@@ -77,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         confirmed = confirm(design, args.out, candidates(results, design.candidates), claims,
                             **options)
     except KeyboardInterrupt:
-        told = len(load_results(args.out))
+        told = len(load_results(args.out, design.trials))
         print(f'mona-swarm calibrate: interrupted: {told} of {design.trials} trials scored and '
               'kept; rerun the same command to resume', file=sys.stderr)
         return exits.INTERRUPTED
@@ -85,5 +87,5 @@ def run(args: argparse.Namespace) -> int:
     best = min(confirmed or results, key=lambda r: (r.score.loss, r.number))
     print(f'{report}: {len(results)} trials, {len(confirmed)} confirmed; best: trial '
           f'{best.number}, loss {best.score.loss:.3f}, {len(best.score.held)} claims hold, '
-          f'ratio {best.score.ratio:.3g}; profile {args.out / "best_profile.yaml"}')
+          f'ratio {best.score.ratio:.3g}; its values: {args.out / best_file(design)}')
     return exits.OK
