@@ -91,7 +91,8 @@ def test_an_existence_search_is_labelled_and_writes_no_profile(tmp_path):
     best = (out / 'best_trial.yaml').read_text()
     assert best.startswith('# The best trial of the existence search (not a profile')
     row = trials(out).sort_values(['loss', 'trial']).iloc[0]
-    assert load_config(out / 'best_trial.yaml').controller.beeclust.alpha == row['controller.beeclust.alpha']
+    best = load_config(out / 'best_trial.yaml')
+    assert best.controller.beeclust.alpha == row['controller.beeclust.alpha']
 
 
 def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path):
