@@ -9,7 +9,10 @@ from collections.abc import Sequence
 
 from tqdm import tqdm
 
+from mona_controller import plugins
+from mona_controller.plugins import Plugin
 from swarm_supervisor.study import progress
+from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
 
@@ -20,6 +23,16 @@ def available_cpus() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
+
+
+def _init_worker(counter, started, records: tuple[Plugin, ...]) -> None:
+    """Pool initializer: count the worker, load the study's plug-ins before any task reaches
+    it (a task's configuration holds their classes: a spawned worker could not unpickle it),
+    then share the progress counter."""
+    with started.get_lock():
+        started.value += 1
+    plugins.ensure(records)
+    progress.init_worker(counter)
 
 
 def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool | None,
@@ -37,15 +50,20 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
 
     Raises:
         Interrupted: stopped by a signal; its ``ran`` holds the episodes finished before.
+        StudyError: a worker process died (killed, or crashed in native code): the pool
+            would start another, but the episodes it held are lost, and waiting for them
+            would never end.
     """
     pending = [task for batch in batches for task in batch]
     if not pending:
         return {}
     context = multiprocessing.get_context(start_method)
     counter = context.Value('d', 0.0)
+    started = context.Value('i', 0)  # workers started: more than ``jobs`` means one died
     total = sum(task.config.episode.duration for task in pending)
     ran: dict[str, tuple[float, float]] = {}
-    pool = context.Pool(jobs, initializer=progress.init_worker, initargs=(counter,))
+    pool = context.Pool(jobs, initializer=_init_worker,
+                        initargs=(counter, started, tuple(pending[0].config.plugins)))
     bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
                  '[{elapsed}<{remaining}]'
     disable = None if shown is None else not shown
@@ -59,7 +77,10 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
                 try:
                     done = results.next(timeout=0.5)
                 except multiprocessing.TimeoutError:
-                    pass
+                    if started.value > jobs:
+                        raise StudyError('a worker process died (killed, or crashed: its '
+                                         'output is above); the episodes it held are lost. '
+                                         'Rerun the same command to resume') from None
                 else:
                     for folder, wall, cpu in done:
                         ran[folder] = wall, cpu
