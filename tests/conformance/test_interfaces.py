@@ -8,10 +8,13 @@ scenario tests/conformance/probe.py plays (conftest.py's ``run`` fixture).
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+from mona_controller.controllers import DEFAULT_KIND, states_of
 
 from geometry import beams, bearings, clean, cue_at, paper_cue, wheel_points
 from probe import (
@@ -546,7 +549,12 @@ def test_markers_one_cylinder_per_robot_coloured_by_its_controller_state(run):
         assert np.hypot(*(poses[marker.id, :2] - where)) < 1e-6 + \
             run.implementation.pose_tolerance, marker.id
         colour[marker.id] = colour_name(marker.color)
-    assert colour[3] == 'red' and colour[4] == 'green', colour
+    # The kind's states' colours (BEECLUST's: follow green, ..., wait and clean red): robot 3
+    # said code 2, robot 4 never said one (code 0).
+    states = states_of(run.params.get('controller', {}).get('kind', DEFAULT_KIND))
+    named = [colour_name(SimpleNamespace(r=r, g=g, b=b)) for r, g, b, _ in
+             (state.colour for state in states)]
+    assert colour[3] == named[2] and colour[4] == named[0], (colour, named)
 
 
 def test_cue_map_and_markers_every_map_period(run):

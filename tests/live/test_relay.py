@@ -7,6 +7,7 @@ reading does not hold the live view's stop."""
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import os
 import signal
 import subprocess
@@ -44,7 +45,10 @@ def handshake(url: str, offered: list[str]) -> str:
                 return ws.subprotocol
         except websockets.InvalidStatus as error:
             return f'HTTP {error.response.status_code}'
-    return asyncio.run(connect())
+    # In a thread of its own: a test before it on this worker may have left an event loop
+    # marked running in the main thread (asyncio.run() then refuses to start).
+    with concurrent.futures.ThreadPoolExecutor(1) as thread:
+        return thread.submit(asyncio.run, connect()).result()
 
 
 def watch(server: LiveServer, offered: list[str]) -> Capture:

@@ -141,7 +141,4 @@ CASES = [
             [MONA_SWARM, 'study', '--quick', '--out', '{tmp}/new'], 2,
             r"metric 'spread' returned an array of shape \(\d+,\), not one number",
             setup=metric_modules, env=ARRAY, timeout=BUILT_WITHIN, **NEW),
-    Mistake('analyze-metric-returns-an-array', [MONA_SWARM, 'analyze', '{tmp}/run/bag'], 2,
-            r"metric 'spread' returned an array of shape \(3,\)",
-            setup=recorded_with_modules, env=ARRAY, **NEW),
 ]
