@@ -1,0 +1,137 @@
+"""docs/reproduction.md against the files it quotes.
+
+Every number the report takes from a file the repository ships is worked out here from that
+file, written as the report writes it, and must appear in the report verbatim; a number
+that is still to come is listed in :data:`PENDING` and in the report's one table "Numbers
+pending", and nowhere else pretends to be a result.
+
+To quote another number, add an entry to :data:`QUOTES`: a name and a function that returns
+the text the report must contain, built from the shipped file. When a pending number lands,
+write it into the report, delete its row from "Numbers pending" and its id from
+:data:`PENDING`, and give it a :data:`QUOTES` entry that reads it from its file.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from swarm_supervisor.analysis.claims import paper_claims
+from swarm_supervisor.analysis.speed_effect import PAPER_RATIO, regime_table
+
+ROOT = Path(__file__).resolve().parents[2]
+DOC = ROOT / 'docs' / 'reproduction.md'
+#: What `make run` (the paper's study) made, as shipped: its report.md, ANOVA tables, figures.
+STUDY = ROOT / 'docs' / 'media' / 'paper_study'
+#: The numbers the report will quote once the work they come from lands (the cooperation
+#: comparison); each is a row of the report's table "Numbers pending".
+PENDING = ('C1', 'C2', 'C3', 'C4', 'C5')
+
+
+@functools.cache
+def doc() -> str:
+    """The report as one line of words: a quote may wrap anywhere."""
+    return ' '.join(DOC.read_text().split())
+
+
+def sections() -> tuple[str, str]:
+    """The report's text before its table "Numbers pending", and that section."""
+    before, rest = DOC.read_text().split('\n## Numbers pending\n', 1)
+    return before, rest.split('\n## ', 1)[0]
+
+
+@functools.cache
+def study_claims() -> dict[str, tuple[str, str]]:
+    """The paper study's "Compared with the paper" table: claim id -> (ours, verdict)."""
+    claims = {}
+    for line in (STUDY / 'report.md').read_text().splitlines():
+        cells = [cell.strip() for cell in line.strip('|').split('|')]
+        if len(cells) == 5 and cells[0].startswith('`') and cells[0].endswith('`'):
+            claims[cells[0].strip('`')] = (cells[3], cells[4].strip('*'))
+    return claims
+
+
+@functools.cache
+def study_report() -> str:
+    return (STUDY / 'report.md').read_text()
+
+
+def anova_ratio(name: str) -> float:
+    frame = pd.read_csv(STUDY / name).set_index('factor')
+    return float(frame.loc['speed', 'sum_sq'] / frame.loc['population', 'sum_sq'])
+
+
+def anova_f(name: str, factor: str) -> float:
+    return float(pd.read_csv(STUDY / name).set_index('factor').loc[factor, 'F'])
+
+
+def speed_line() -> re.Match:
+    """report.md's speed-effect sentence, its numbers as groups."""
+    match = re.search(r'SS_speed / SS_population of the mean cue is ([\d.]+) \(the paper: '
+                      r'([\d.]+)\); by the main effects, N = 50 at 4 cm/s performs like '
+                      r'N = ([\d.]+) at 8 cm/s, where the paper\'s ratio would need '
+                      r'N = ([\d.]+) with this study\'s population effects \(N = ([\d.]+) '
+                      r'with effects linear in N', study_report())
+    assert match, 'report.md has no speed-effect sentence'
+    return match
+
+
+def _claim_row(claim_id: str) -> Callable[[], str]:
+    def text() -> str:
+        ours, verdict = study_claims()[claim_id]
+        return f'| {ours} | {verdict} |'
+    return text
+
+
+#: Each quoted number: a name, and the text the report must contain, built from its file.
+QUOTES: dict[str, Callable[[], str]] = {
+    **{f'paper study: {claim.id}': _claim_row(claim.id) for claim in paper_claims()},
+    'paper study: claims held': lambda: (
+        f'{sum(v == "holds" for _, v in study_claims().values())} of '
+        f'{len(study_claims())} claims hold'),
+    'paper study: ratio': lambda: f'SS_speed / SS_population = {anova_ratio("anova_cue.csv"):.3f}',
+    'paper study: F of the mean cue': lambda: (
+        f'F = {anova_f("anova_cue.csv", "speed"):.0f} for speed, '
+        f'{anova_f("anova_cue.csv", "population"):.0f} for population and '
+        f'{anova_f("anova_cue.csv", "time"):.0f} for time'),
+    'paper study: N = 50 at 4 cm/s performs like': lambda: (
+        f'N = 50 at 4 cm/s performs like N = {speed_line()[3]} at 8 cm/s'),
+    'paper study: what the paper needs': lambda: (
+        f'N = {speed_line()[4]} with our population effects, N = {speed_line()[5]} with '
+        'effects linear in N'),
+    'paper ratio': lambda: f'{PAPER_RATIO:.3f}',
+    **{f'regime {i}': functools.partial(lambda i: regime_table()[i], i)
+       for i in range(len(regime_table()))},
+}
+
+
+@pytest.mark.parametrize('name', sorted(QUOTES))
+def test_every_quoted_number_is_the_shipped_files(name):
+    text = ' '.join(QUOTES[name]().split())
+    assert text in doc(), f'{name}: docs/reproduction.md does not say {text!r}'
+
+
+def test_the_study_shipped_is_the_papers_whole_design():
+    assert set(study_claims()) == {claim.id for claim in paper_claims()}
+    assert 'from 60 episodes' in study_report()
+    for name in ('fig3_cue_maps.png', 'fig4_mean_cue.png', 'fig5_ratio_near_source.png',
+                 'fig6_coherency.png'):
+        assert f'(media/paper_study/{name})' in doc(), name
+
+
+def test_pending_numbers_are_listed_in_one_place_and_nowhere_pretend():
+    before, pending = sections()
+    rows = [[cell.strip() for cell in line.strip().strip('|').split('|')]
+            for line in pending.splitlines() if re.match(r'\|\s*C\d+\s*\|', line)]
+    assert [row[0] for row in rows] == list(PENDING)
+    assert all(row[-1] == '**pending**' for row in rows), rows
+    # The text cites each pending number by its id, and writes "pending" as a value nowhere
+    # else.
+    for number in PENDING:
+        assert f'[{number}](#numbers-pending)' in before, number
+    assert '**pending**' not in before
