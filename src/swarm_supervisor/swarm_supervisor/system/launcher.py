@@ -68,8 +68,10 @@ PROG = 'mona-swarm launch'
 SHUTDOWN_GRACE = 30.0
 #: Seconds the metrics node gets to notice a dead world and close its bag.
 BAG_GRACE = 30.0
-#: Seconds a world or metrics node may have ended cleanly before the supervisor does.
-QUIET_END = 10.0
+#: Seconds a world or metrics node may have ended cleanly before the supervisor does: as long
+#: as the nodes get after the shutdown announcement (10 s was too short on a busy machine: a
+#: metrics node that ended on the announcement failed a node-system run that had finished).
+QUIET_END = 30.0
 #: Seconds between two looks at the /dev/shm files the nodes map.
 NOTE_SHM_EVERY = 10.0
 #: Wall seconds between two progress lines on stderr.
