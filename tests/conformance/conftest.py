@@ -184,6 +184,14 @@ class Run:
         gap, poses = min((abs(when - stamp), poses) for _, when, poses in self.probe.poses)
         return poses if gap <= self.step_ns else None
 
+    def poses_before(self, stamp: int, age_s: float) -> list:
+        """The /world/poses of this stamp (or the nearest within a step) and those of the
+        ``age_s`` seconds before it, newest first: what a reading of ``stamp`` may have seen."""
+        near = self.poses_near(stamp)
+        earlier = sorted(((when, poses) for _, when, poses in self.probe.poses
+                          if stamp - age_s * 1e9 <= when < stamp), key=lambda pair: -pair[0])
+        return ([] if near is None else [near]) + [poses for _, poses in earlier]
+
     def maps(self, k: int, name: str = 'cue_map') -> list:
         """Episode ``k``'s ``name`` messages (cue_map, cue_grid, markers): stamped in its window
         and received after its announcement and before the next one's (an episode's last map

@@ -54,6 +54,8 @@ class Run:
         self.recorder.add_node(self.metrics)
         self.stalled = False
         self.closing = False
+        #: Set by the recorder's thread once it has seen ``stalled`` (no spin under way).
+        self.idle = threading.Event()
         self.thread = threading.Thread(target=self._spin_recorder, daemon=True)
         self.thread.start()
         self.max_lead_ns = 0  # how far the world got ahead of the record (sim ns)
@@ -62,6 +64,7 @@ class Run:
     def _spin_recorder(self) -> None:
         while not self.closing:
             if self.stalled:
+                self.idle.set()
                 time.sleep(0.01)
             else:
                 self.recorder.spin_once(timeout_sec=0.05)
@@ -81,8 +84,9 @@ class Run:
 
     def stall(self, until: Callable[[], bool] = lambda: True, at_least: float = 1.0) -> None:
         """Spin everything but the recorder until ``until()`` holds, ``at_least`` seconds."""
+        self.idle.clear()
         self.stalled = True
-        time.sleep(0.1)  # the recorder's spin_once under way ends
+        self.idle.wait()  # the spin under way has ended (on a busy machine, whenever that is)
         shortest = time.monotonic() + at_least
         self.spin(lambda: time.monotonic() > shortest and until(), 'the end of the stall')
         self.stalled = False
