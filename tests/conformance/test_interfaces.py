@@ -201,6 +201,18 @@ def test_ranges_are_measured_from_the_body_edge_inf_beyond_range_max(run):
     assert compared and seen >= 4  # robots 0, 1, 2, 3 see something at step 0
 
 
+def test_beams_run_right_to_left(run):
+    """`proximity`: one beam per front IR sensor, **right to left** (robot 0 has a wall on its
+    right, robot 3 one on its left, at step 0)."""
+    start = run.window(0)[0]
+    first = {robot: [msg for _, stamp, msg in run.readings(robot, 'proximity', 0)
+                     if stamp == start] for robot in (0, 3)}
+    assert first[0] and first[3], 'no proximity reading of step 0 for robots 0 and 3'
+    right_wall, left_wall = list(first[0][0].ranges), list(first[3][0].ranges)
+    assert math.isfinite(right_wall[0]) and math.isinf(right_wall[-1]), right_wall
+    assert math.isfinite(left_wall[-1]) and math.isinf(left_wall[0]), left_wall
+
+
 def test_intensities_are_1_for_a_robot_and_0_otherwise(run):
     """`intensities[k] = 1.0` where the obstacle is a robot, `0.0` otherwise."""
     robots_seen = walls_seen = 0
