@@ -2,7 +2,7 @@
 
 ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use.
 The topics themselves (name, type, QoS, publisher, what a bag records) are one table,
-:data:`mona_controller.topics.TOPICS`, re-exported here; :mod:`mona_controller.qos` builds
+:data:`mona_controller.topics.TOPICS`, re-exported here; :mod:`mona_controller.ros.qos` builds
 the rclpy profiles from it. The page that explains it is docs/interfaces.md.
 """
 

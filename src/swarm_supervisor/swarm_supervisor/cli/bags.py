@@ -288,7 +288,7 @@ def replay(args: argparse.Namespace) -> int:
         (unless ``--allow-incomplete``).
     """
     check_rmw()  # before rclpy is imported: rcl ends the process over an unknown one
-    from swarm_supervisor.system.replay import check_ros_environment, play  # needs ROS
+    from swarm_supervisor.system.ros.replay import check_ros_environment, play  # needs ROS
 
     check_ros_environment()
     try:

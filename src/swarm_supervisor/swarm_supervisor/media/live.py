@@ -7,8 +7,8 @@ the server's time are sim time. Two feeders use it:
 
 * :class:`LiveView`, an observer of the embedded runner (``mona-swarm run --live``); it also
   paces the episode to a multiple of real time on request (``--pace``);
-* :mod:`swarm_supervisor.system.live_node`, a node of the node system that forwards the recorded
-  topics (``scripts/swarm.sh --live``).
+* :mod:`swarm_supervisor.system.ros.live_node`, a node of the node system that forwards the
+  recorded topics (``scripts/swarm.sh --live``).
 
 Watching must not slow the episode down: messages are made only for channels a client
 subscribes to (none connected: nothing is built), and at most ``rate`` times per wall second

@@ -121,7 +121,7 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                                             *ros_args]
     if getattr(options, 'live', False):  # before the supervisor: it sees the whole episode
         linger = getattr(options, 'linger', None)
-        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.live_node',
+        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.ros.live_node',
                             '--ros-args', '-p', f'port:={options.live_port}',
                             '-p', f'linger:={-1.0 if linger is None else float(linger)}']
     commands['supervisor'] = [executables['supervisor'], *ros_args,

@@ -28,15 +28,15 @@ from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
-from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError, WorldState
 from mona_controller.link.frame import Decoder
 from mona_controller.link.transport import SerialTransport, Transport, UdpTransport
 from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros import qos
+from mona_controller.ros.ros_params import declare_section
+from mona_controller.ros.shutdown import deliver, teardown
 from mona_controller.schema import ParameterError
-from mona_controller.shutdown import deliver, teardown
 from swarm_world.driver.fleet import Fleet
 from swarm_world.driver.params import UDP_PREFIX, DriverParams, udp_address
 from swarm_world.driver.tracked import TrackedWorld

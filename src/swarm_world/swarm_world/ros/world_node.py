@@ -32,7 +32,6 @@ from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String, UInt8, UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from mona_controller import qos
 from mona_controller.contract import (
     Announcement,
     ContractError,
@@ -42,18 +41,19 @@ from mona_controller.contract import (
     WorldStatus,
     recorder_names,
 )
-from mona_controller.messages import (
+from mona_controller.mona import MonaParams
+from mona_controller.node_help import node_parser, parse_node_args
+from mona_controller.ros import qos
+from mona_controller.ros.messages import (
     fill_readings,
     ground_image,
     proximity_scan,
     set_stamp,
     stamp_to_ns,
 )
-from mona_controller.mona import MonaParams
-from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_plugins, declare_section
+from mona_controller.ros.ros_params import declare_plugins, declare_section
+from mona_controller.ros.shutdown import deliver, teardown
 from mona_controller.schema import ParameterError, differences, to_mapping
-from mona_controller.shutdown import deliver, teardown
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.ros.world_messages import (
