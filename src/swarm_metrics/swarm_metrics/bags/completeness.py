@@ -37,9 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from mona_controller.contract import CLEANING, ROBOT_STATES, SOURCES
+from mona_controller.contract import CLEANING, ROBOT_STATES, SOURCES, STATUS
 from swarm_metrics.bags.analysis import Recomputation, episode_setup, recompute
-from swarm_metrics.bags.reader import STATUS, BagError, EpisodeBag, read_episode_bag
+from swarm_metrics.bags.reader import EpisodeBag, read_episode_bag
+from swarm_metrics.bags.scan import BagError
 from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.

@@ -50,7 +50,8 @@ from mona_controller.contract import (
 )
 from swarm_metrics.bags.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
 from swarm_metrics.bags.completeness import Finding, check_bag_file
-from swarm_metrics.bags.reader import BagError, RawMessage, decode, decode_json, poses_of
+from swarm_metrics.bags.reader import decode, decode_json, poses_of
+from swarm_metrics.bags.scan import BagError, RawMessage
 from swarm_metrics.bags.writer import EpisodeBagWriter, offered
 from swarm_metrics.metrics import metric_names
 from swarm_world.messages.cdr import float64_cdr

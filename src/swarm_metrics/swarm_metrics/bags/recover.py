@@ -2,7 +2,7 @@
 
 A SIGKILLed writer leaves an MCAP file without its summary and footer, often ending inside a
 chunk; rosbags and most tools refuse such a file. :func:`recover_bag` reads it front to back
-with :class:`~swarm_metrics.bags.reader.McapScan` in tolerant mode (the mcap library's record
+with :class:`~swarm_metrics.bags.scan.McapScan` in tolerant mode (the mcap library's record
 parsers, each chunk checked against its CRC), keeps every message of every intact chunk, skips
 a damaged chunk whose frame is intact, stops where the framing breaks, and writes what it kept
 through :class:`~swarm_metrics.bags.writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
@@ -30,16 +30,10 @@ from typing import TypeVar
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
 
+from mona_controller.contract import EPISODE
 from swarm_metrics.bags.losses import LostChunk, lost_chunks, read_index
-from swarm_metrics.bags.reader import (
-    EPISODE,
-    BagError,
-    McapScan,
-    TruncatedBagError,
-    decode_json,
-    find_mcap,
-    read_custom_data,
-)
+from swarm_metrics.bags.reader import decode_json, find_mcap, read_custom_data
+from swarm_metrics.bags.scan import BagError, McapScan, TruncatedBagError
 from swarm_metrics.bags.writer import CUSTOM_PREFIX, EpisodeBagWriter
 from swarm_world.messages.cdr import TYPESTORE
 

@@ -23,8 +23,9 @@ from mona_controller import plugins
 from mona_controller.schema import ParameterError, from_mapping
 from swarm_metrics.bags import completeness
 from swarm_metrics.bags.completeness import Finding
-from swarm_metrics.bags.reader import BagError, EpisodeBag, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.reader import EpisodeBag, find_mcap, read_episode_bag
 from swarm_metrics.bags.recover import SUFFIX, default_target, recover_bag, with_recovery
+from swarm_metrics.bags.scan import BagError, McapScan
 from swarm_supervisor.cli.arguments import bounded, deprecated_alias
 from swarm_supervisor.cli.bag_outputs import (
     ANALYSIS_SUFFIX,
