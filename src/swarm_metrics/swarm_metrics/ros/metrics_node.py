@@ -42,7 +42,8 @@ from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import teardown
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
-from swarm_metrics.bags.recording import Closed, Recorder, Row
+from swarm_metrics.bags.record import Closed, Row
+from swarm_metrics.bags.recording import Recorder
 from swarm_metrics.bags.scan import BagError
 from swarm_metrics.bags.writer import CHUNK_PERIOD
 from swarm_metrics.metrics import metric_names

@@ -33,7 +33,8 @@ from mona_controller.contract import (
     WorldStatus,
 )
 from mona_controller.controllers import states_of
-from swarm_metrics.bags.recording import Closed, Recorder
+from swarm_metrics.bags.record import Closed
+from swarm_metrics.bags.recording import Recorder
 from swarm_metrics.bags.writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.config import SwarmConfig

@@ -137,6 +137,26 @@ def states_from_cdr(data: bytes) -> np.ndarray:
     return np.asarray(message.data, dtype=np.uint8)
 
 
+def stamp_ns(data: bytes) -> int:
+    """The stamp of a serialized message whose first field is a Time (a Header, a Clock).
+
+    Reads the CDR bytes directly (encapsulation, then sec int32 and nanosec uint32), so a
+    recorded message needs no deserialization.
+    """
+    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+def markers_stamp_ns(data: bytes) -> int | None:
+    """The stamp of a serialized MarkerArray's first marker (None: no markers)."""
+    big = data[1] != 1
+    (count,) = struct.unpack_from('>I' if big else '<I', data, 4)
+    if count == 0:
+        return None
+    sec, nanosec = struct.unpack_from('>iI' if big else '<iI', data, 8)
+    return sec * 1_000_000_000 + nanosec
+
+
 def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):
     """One robot's cylinder marker."""
     height = arena_markers.ROBOT_HEIGHT

@@ -37,9 +37,9 @@ from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import teardown
 from mona_controller.schema import ParameterError, param, validate
-from swarm_metrics.bags.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 from swarm_supervisor.system.processes import LIVE_READY
+from swarm_world.messages.cdr import stamp_ns
 
 #: The world's topics published with every step and kept for no late subscriber: the live
 #: view must be subscribed before step 0 to show the episode and, after it, its final state.
