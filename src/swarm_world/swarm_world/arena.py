@@ -16,9 +16,10 @@ polygon. A ROS parameter file cannot mix strings and numbers in one list (rcl re
 "Sequence should be of same type"), so a file that both runners read spells obstacles so.
 
 Every module that needs the arena's geometry takes it from here: :mod:`swarm_world.physics`
-makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensing.sensors` casts the IR beams
-against the flat arrays of :func:`pack` (one ray test per kind: the walls, a disc, a segment
-for each edge of a rect or polygon), :mod:`swarm_world.placement` keeps robots clear of them
+makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensing.ir` casts the IR
+beams against the flat arrays of :func:`pack` (one ray test per kind,
+:mod:`swarm_world.sensing.rays`: the walls, a disc, a segment for each edge of a rect or
+polygon), :mod:`swarm_world.placement` keeps robots clear of them
 by :meth:`clearance`, and :mod:`swarm_world.field` may clear the cue under them.
 """
 
@@ -204,7 +205,7 @@ class Arena:
 
     @functools.cached_property
     def packed(self) -> ObstacleArrays:
-        """:func:`pack` of this arena alone (what ``sensors.proximity`` takes)."""
+        """:func:`pack` of this arena alone (what ``ir.proximity`` takes)."""
         return pack([self])
 
     def under(self, cells: int, cell_size: float) -> np.ndarray:

@@ -25,7 +25,7 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import ffi, lib
 
 from swarm_world.arena import Disc, Obstacle
-from swarm_world.sensing.sensors import heading_trig
+from swarm_world.sensing.headings import heading_trig
 
 BODY_MASS = 0.1  # kg; only the ratio between robots matters, and all are equal
 WALL_THICKNESS = 0.05  # m, outside the arena so the inner faces sit exactly on its edges
@@ -217,7 +217,7 @@ class PhysicsBatch:
              trig: np.ndarray) -> np.ndarray:
         """Drive every robot of every space (rows in member order) for ``dt`` seconds; return
         the new poses [R, 3] (a new array; each member's ``poses`` is its rows of it).
-        ``trig``: :func:`~swarm_world.sensing.sensors.heading_trig` of the poses now."""
+        ``trig``: :func:`~swarm_world.sensing.headings.heading_trig` of the poses now."""
         if self._scale[0] != dt:
             self._scale = (dt, np.concatenate([member._scale_for(dt)
                                                for member in self.members]))

@@ -38,7 +38,7 @@ from swarm_world.driver.params import DriverParams
 from swarm_world.driver.wheels import pwm_to_permille
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics
-from swarm_world.sensing.sensors import proximity
+from swarm_world.sensing.ir import proximity
 
 REPO = Path(__file__).resolve().parents[4]
 FIRMWARE = REPO / 'firmware'
