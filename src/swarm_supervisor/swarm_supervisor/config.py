@@ -29,18 +29,15 @@ import yaml
 from mona_controller import plugins as plugin_files
 from mona_controller.controllers.params import ControllerParams
 from mona_controller.keys import leaf, mapping_value, renamed_keys
+from mona_controller.mappings import from_mapping, merged, to_mapping, unflatten
 from mona_controller.mona import MonaParams
 from mona_controller.plugins import Plugin
 from mona_controller.schema import (
     NOT_A_PARAMETER,
     DeprecatedKeyWarning,
     ParameterError,
-    from_mapping,
-    merged,
     param,
     parameter_fields,
-    to_mapping,
-    unflatten,
     validate,
 )
 from swarm_metrics.metrics import MetricsParams

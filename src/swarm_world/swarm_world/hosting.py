@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mona_controller.contract import RECORDERS, Announcement
-from mona_controller.schema import differences, to_mapping
+from mona_controller.mappings import differences, to_mapping
 
 if TYPE_CHECKING:
     from swarm_world.lockstep import Lockstep

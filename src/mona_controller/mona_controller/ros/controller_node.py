@@ -29,6 +29,7 @@ from std_msgs.msg import Bool, String, UInt8
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.controllers.base import Controller, make_controller
 from mona_controller.controllers.params import ControllerParams
+from mona_controller.mappings import differences
 from mona_controller.mona import MonaParams, wheels_to_twist
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.pairing import RateLimitedLog, ReadingPairs
@@ -42,7 +43,7 @@ from mona_controller.ros.messages import (
 )
 from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import teardown
-from mona_controller.schema import ParameterError, differences, param, validate
+from mona_controller.schema import ParameterError, param, validate
 
 #: Wall seconds between checks that a world (or driver) listens to our commands.
 LISTEN_POLL = 0.02

@@ -19,8 +19,9 @@ import numpy as np
 
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.controllers import State
+from mona_controller.keys import moved_keys, relocate
+from mona_controller.mappings import from_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import from_mapping, moved_keys, relocate
 from swarm_metrics.bags.reader import EpisodeBag
 from swarm_metrics.bags.scan import BagError
 from swarm_metrics.metrics import MetricsParams, metric_names, sample_field

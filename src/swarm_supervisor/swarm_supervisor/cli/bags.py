@@ -20,7 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mona_controller import plugins
-from mona_controller.schema import ParameterError, from_mapping
+from mona_controller.mappings import from_mapping
+from mona_controller.schema import ParameterError
 from swarm_metrics.bags import completeness
 from swarm_metrics.bags.completeness import Finding
 from swarm_metrics.bags.reader import EpisodeBag, find_mcap, read_episode_bag

@@ -8,8 +8,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from mona_controller.keys import renamed_keys
-from mona_controller.schema import moved_keys, parameter_fields, spec_of
+from mona_controller.keys import moved_keys, renamed_keys
+from mona_controller.schema import parameter_fields, spec_of
 from swarm_supervisor.config import FILE_RELATIVE, SwarmConfig
 
 #: The parameters that name a file.

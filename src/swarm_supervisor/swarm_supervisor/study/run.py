@@ -20,7 +20,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from mona_controller.schema import leaves
+from mona_controller.mappings import leaves
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, current_keys, mapping_value, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError

@@ -21,8 +21,8 @@ from typing import Any
 import pandas as pd
 
 from mona_controller import plugins
+from mona_controller.mappings import leaves
 from mona_controller.plugins import Plugin
-from mona_controller.schema import leaves
 from swarm_metrics.bags.completeness import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs

@@ -30,9 +30,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mona_controller.keys import moved_keys, relocate
 from mona_controller.link.frame import START, size
+from mona_controller.mappings import from_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import ParameterError, from_mapping, moved_keys, relocate
+from mona_controller.schema import ParameterError
 from swarm_world.driver.calibration import IrCalibration
 from swarm_world.driver.params import DriverParams
 from swarm_world.driver.wheels import pwm_to_permille
