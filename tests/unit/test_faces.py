@@ -70,3 +70,14 @@ def test_the_old_names_of_the_moved_adapters_forward_for_one_release():
     with pytest.warns(DeprecationWarning, match='system.ros.supervisor_node.Supervisor'):
         from swarm_supervisor.system.supervisor_node import Supervisor
     assert Supervisor is supervisor_node.Supervisor
+
+
+def test_the_names_that_left_the_schema_forward_for_one_release():
+    from mona_controller import mappings, schema
+    with pytest.warns(DeprecationWarning, match='mona_controller.schema.from_mapping moved to '
+                                                'mona_controller.mappings.from_mapping'):
+        from mona_controller.schema import from_mapping
+    assert from_mapping is mappings.from_mapping
+    with pytest.raises(AttributeError):
+        schema.no_such_name  # noqa: B018
+

@@ -17,6 +17,7 @@ naming the new one (:mod:`mona_controller.keys`).
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 import warnings
 from collections.abc import Callable, Mapping
@@ -222,3 +223,20 @@ def section_mapping(value: Any, name: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise ParameterError(f'{name} must be a section (a mapping)')
     return value
+
+
+#: Names that moved out of this module, to where they live now: still found here, with a
+#: DeprecationWarning, for one release.
+MOVED = {**dict.fromkeys(('differences', 'flat_fields', 'from_mapping', 'leaves', 'merged',
+                          'to_mapping', 'unflatten'), 'mona_controller.mappings'),
+         **dict.fromkeys(('moved_key', 'moved_keys', 'relocate'), 'mona_controller.keys')}
+
+
+def __getattr__(name: str) -> Any:
+    """A name of :data:`MOVED`, from where it lives now (with a DeprecationWarning)."""
+    module = MOVED.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    warnings.warn(f'{__name__}.{name} moved to {module}.{name}', DeprecationWarning,
+                  stacklevel=2)
+    return getattr(importlib.import_module(module), name)
