@@ -3,7 +3,7 @@ and "Recorders").
 
 The world node (:mod:`swarm_world.ros.world_node`) keeps the topics and the timers; here is
 what it decides with them, in plain Python: whether it can play an announced episode
-(:func:`check_announcement`), what it says when the controllers or the recorders do not
+(:func:`unplayable`), what it says when the controllers or the recorders do not
 come (:func:`unconnected`, :func:`unconfirmed`), how far its recorders must have recorded
 before it steps on and what it says when they do not (:func:`hold_until_ns`,
 :func:`hold_failure`), and the final state it writes for parity checks
@@ -31,8 +31,8 @@ if TYPE_CHECKING:
 FINAL_FILE = 'world_final.npz'
 
 
-def check_announcement(announcement: Announcement, time_ns: int,
-                       sections: Mapping[str, Any]) -> str:
+def unplayable(announcement: Announcement, time_ns: int,
+               sections: Mapping[str, Any]) -> str:
     """What a world at sim time ``time_ns`` whose parameters are ``sections`` (``world``,
     ``mona``, ``sensing``: name -> section) cannot play of a well-formed announcement ('' =
     nothing)."""

@@ -4,7 +4,7 @@ stepping (docs/interfaces.md).
 :class:`EpisodeHost` declares the parameters, builds the world and its topics
 (:class:`~swarm_world.ros.world_topics.WorldTopics`, one
 :class:`~swarm_world.ros.robot_link.RobotLink` per robot), and runs each announced episode's
-life: it checks the announcement (:func:`swarm_world.hosting.check_announcement`), resets the
+life: it checks the announcement (:func:`swarm_world.hosting.unplayable`), resets the
 world, waits for every robot's controller and every recorder, publishes the start, and at the
 end the final map, status and state (``output_dir``), or the failure. How the world steps in
 between is its subclass's: :class:`~swarm_world.ros.world_node.WorldNode` (lockstep or
@@ -37,7 +37,7 @@ from mona_controller.contract import (
 from mona_controller.mona import MonaParams
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
-from swarm_world.hosting import check_announcement, unconfirmed, unconnected, write_final
+from swarm_world.hosting import unconfirmed, unconnected, unplayable, write_final
 from swarm_world.lockstep import Lockstep
 from swarm_world.params import WorldNodeParams, WorldParams
 from swarm_world.ros.robot_link import RobotLink
@@ -154,7 +154,7 @@ class EpisodeHost(Node):
 
     def _check_announcement(self, announcement: Announcement) -> str:
         """What this world cannot play of a well-formed announcement ('' = nothing)."""
-        return check_announcement(announcement, self.time_ns, self.sections)
+        return unplayable(announcement, self.time_ns, self.sections)
 
     def on_recorder(self, msg: String) -> None:
         """A recorder's report: it records the episode, how far, or that it closed it."""
