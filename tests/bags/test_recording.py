@@ -13,7 +13,8 @@ import pytest
 
 from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
 from swarm_metrics.bags.analysis import recompute
-from swarm_metrics.bags.completeness import check_bag, failed_checks
+from swarm_metrics.bags.checks import failed_checks
+from swarm_metrics.bags.completeness import check_bag
 from swarm_metrics.bags.reader import find_mcap, read_episode_bag
 from swarm_metrics.bags.recording import Recorder
 from swarm_metrics.bags.scan import McapScan

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 from mona_controller.contract import CUE_MAP, ROBOT_STATES, SOURCES, WorldStatus
 from swarm_metrics.bags.analysis import EpisodeSetup, MetricsReplica
-from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags.checks import Finding
 from swarm_metrics.bags.writer import EpisodeBagWriter
 
 #: A metric row as the node publishes it: (log time ns, {metric: value}).

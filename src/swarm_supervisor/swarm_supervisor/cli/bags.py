@@ -23,7 +23,7 @@ from mona_controller import plugins
 from mona_controller.mappings import from_mapping
 from mona_controller.schema import ParameterError
 from swarm_metrics.bags import completeness
-from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags.checks import Finding, describe, failed_checks
 from swarm_metrics.bags.reader import EpisodeBag, find_mcap, read_episode_bag
 from swarm_metrics.bags.recover import SUFFIX, default_target, recover_bag, with_recovery
 from swarm_metrics.bags.scan import BagError, McapScan
@@ -59,10 +59,10 @@ class IncompleteBagError(Exception):
     def __init__(self, path: Path, findings: Sequence[Finding], hint: str,
                  note: str | None = None) -> None:
         self.findings = list(findings)
-        checks = completeness.failed_checks(findings)
+        checks = failed_checks(findings)
         plural = 's' if len(checks) > 1 else ''
         super().__init__(f'{path} is incomplete: it fails the {", ".join(checks)} check'
-                         f'{plural}; {hint}:\n{completeness.describe(findings)}'
+                         f'{plural}; {hint}:\n{describe(findings)}'
                          + (f'\n  note: {note}' if note else ''))
 
 
@@ -215,14 +215,14 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
     last = result.rows[-1]
     agreement = ('no online metrics in the bag' if result.online_max_diff is None else
                  f'online metrics agree to {result.online_max_diff:.3g}')
-    checks = ', '.join(completeness.failed_checks(findings))
+    checks = ', '.join(failed_checks(findings))
     text = (f'{out}: N={setup.population} seed={setup.seed}: mean cue {last["mean_cue"]:.2f} '
             f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s'
             f'{f" (INCOMPLETE: fails {checks})" if findings else ""}; '
             f'{agreement}; {result.cue_maps_checked} cue maps match the rebuilt cue to '
             f'{result.cue_map_max_diff}')
     if findings:
-        text += f'\n{completeness.describe(findings)}'
+        text += f'\n{describe(findings)}'
     return text + (f'\n  note: {note}' if note else '')
 
 

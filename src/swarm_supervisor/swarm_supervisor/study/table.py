@@ -23,7 +23,7 @@ import pandas as pd
 from mona_controller import plugins
 from mona_controller.mappings import leaves
 from mona_controller.plugins import Plugin
-from swarm_metrics.bags.completeness import Finding, check_rows
+from swarm_metrics.bags.checks import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs
 from swarm_supervisor.config import DESIGN_KEYS, SwarmConfig, current_keys, mapping_value
