@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
+from mona_controller.topics import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
 from swarm_metrics.bags.analysis import recompute
 from swarm_metrics.bags.checks import failed_checks
 from swarm_metrics.bags.completeness import check_bag

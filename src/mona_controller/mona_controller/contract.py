@@ -1,9 +1,10 @@
-"""The topic contract as plain Python: names, world states and the recorder protocol.
+"""The topic contract as plain Python: the frames, world states, the episode announcement and
+the recorder protocol.
 
 ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use.
 The topics themselves (name, type, QoS, publisher, what a bag records) are one table,
-:data:`mona_controller.topics.TOPICS`, re-exported here; :mod:`mona_controller.ros.qos` builds
-the rclpy profiles from it. The page that explains it is docs/interfaces.md.
+:data:`mona_controller.topics.TOPICS`, with the topic names; :mod:`mona_controller.ros.qos`
+builds the rclpy profiles from it. The page that explains it is docs/interfaces.md.
 """
 
 from __future__ import annotations
@@ -12,38 +13,12 @@ import dataclasses
 import enum
 import json
 import math
+import warnings
 from collections.abc import Iterable
+from typing import Any
 
+from mona_controller import topics
 from mona_controller.controllers.base import State, states_for
-
-# The topic names and the table they belong to (re-exported: one import for the contract).
-from mona_controller.topics import (  # noqa: F401
-    CLEANER,
-    CLEANING,
-    CLOCK,
-    CMD_VEL,
-    CUE_GRID,
-    CUE_MAP,
-    EPISODE,
-    GROUND,
-    MARKERS,
-    METRICS_PREFIX,
-    OBSTACLES,
-    POSES,
-    PROXIMITY,
-    RECORDERS,
-    ROBOT_STATES,
-    SOURCES,
-    STATE,
-    STATUS,
-    TOPICS,
-    QoS,
-    Topic,
-    metric_topic,
-    robot_namespace,
-    robot_topic,
-    topic_of,
-)
 
 #: The world frame (REP 103: origin at an arena corner, x and y along the walls).
 WORLD_FRAME = 'world'
@@ -361,3 +336,14 @@ class RecorderBook:
         reports = {name: self._of(name, episode, start_ns) for name in self.names}
         return {name: report for name, report in reports.items()
                 if report is not None and report.state is RecorderState.CLOSED}
+
+
+def __getattr__(name: str) -> Any:
+    """A name of the topic table (:mod:`mona_controller.topics`), which this module
+    re-exported until this release: still found here for one release, with a
+    DeprecationWarning."""
+    if name.startswith('_') or not hasattr(topics, name):
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    warnings.warn(f'{__name__}.{name} moved to mona_controller.topics.{name}',
+                  DeprecationWarning, stacklevel=2)
+    return getattr(topics, name)

@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mona_controller.contract import RECORDERS, Announcement
+from mona_controller.contract import Announcement
 from mona_controller.mappings import differences, to_mapping
+from mona_controller.topics import RECORDERS
 
 if TYPE_CHECKING:
     from swarm_world.lockstep import Lockstep

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from mona_controller.contract import CLEANING, ROBOT_STATES, SOURCES, STATUS
+from mona_controller.topics import CLEANING, ROBOT_STATES, SOURCES, STATUS
 from swarm_metrics.metrics import metric_names
 
 #: Every check, in the order they are reported.

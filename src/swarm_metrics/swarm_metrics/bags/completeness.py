@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mona_controller.contract import ROBOT_STATES
+from mona_controller.topics import ROBOT_STATES
 from swarm_metrics.bags.analysis import Recomputation, episode_setup, recompute
 from swarm_metrics.bags.checks import (
     Finding,

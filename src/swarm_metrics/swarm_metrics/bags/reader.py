@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from mona_controller.contract import (
+from mona_controller.topics import (
     CLEANING,
     CUE_MAP,
     EPISODE,

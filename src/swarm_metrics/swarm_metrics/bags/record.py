@@ -15,7 +15,8 @@ import dataclasses
 from pathlib import Path
 from typing import NamedTuple
 
-from mona_controller.contract import CUE_MAP, ROBOT_STATES, SOURCES, WorldStatus
+from mona_controller.contract import WorldStatus
+from mona_controller.topics import CUE_MAP, ROBOT_STATES, SOURCES
 from swarm_metrics.bags.analysis import EpisodeSetup, MetricsReplica
 from swarm_metrics.bags.checks import Finding
 from swarm_metrics.bags.writer import EpisodeBagWriter

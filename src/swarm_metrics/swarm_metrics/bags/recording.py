@@ -25,7 +25,8 @@ import bisect
 import collections
 from pathlib import Path
 
-from mona_controller.contract import (
+from mona_controller.contract import ContractError, WorldState, WorldStatus
+from mona_controller.topics import (
     CLEANING,
     CLOCK,
     CUE_MAP,
@@ -36,9 +37,6 @@ from mona_controller.contract import (
     SOURCES,
     STATUS,
     TOPICS,
-    ContractError,
-    WorldState,
-    WorldStatus,
     metric_topic,
     topic_of,
 )

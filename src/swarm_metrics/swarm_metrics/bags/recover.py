@@ -30,7 +30,7 @@ from typing import TypeVar
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
 
-from mona_controller.contract import EPISODE
+from mona_controller.topics import EPISODE
 from swarm_metrics.bags.losses import LostChunk, lost_chunks, read_index
 from swarm_metrics.bags.reader import decode_json, find_mcap, read_custom_data
 from swarm_metrics.bags.scan import BagError, McapScan, TruncatedBagError

@@ -33,7 +33,9 @@ from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
 from mona_controller import topics
-from mona_controller.contract import (
+from mona_controller.contract import Announcement, WorldState, WorldStatus
+from mona_controller.controllers import states_of
+from mona_controller.topics import (
     CLOCK,
     CUE_GRID,
     CUE_MAP,
@@ -44,12 +46,8 @@ from mona_controller.contract import (
     ROBOT_STATES,
     SOURCES,
     STATUS,
-    Announcement,
-    WorldState,
-    WorldStatus,
     metric_topic,
 )
-from mona_controller.controllers import states_of
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer

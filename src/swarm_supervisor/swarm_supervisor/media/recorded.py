@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.contract import (
+from mona_controller.topics import (
     CLEANING,
     CUE_MAP,
     EPISODE,

@@ -23,16 +23,9 @@ import numpy as np
 from rosbags.interfaces import Qos
 
 from mona_controller import topics
-from mona_controller.contract import (
-    CLEANING,
-    CLOCK,
-    CUE_MAP,
-    POSES,
-    Announcement,
-    WorldState,
-    WorldStatus,
-)
+from mona_controller.contract import Announcement, WorldState, WorldStatus
 from mona_controller.controllers import states_of
+from mona_controller.topics import CLEANING, CLOCK, CUE_MAP, POSES
 from swarm_metrics.bags.record import Closed
 from swarm_metrics.bags.recording import Recorder
 from swarm_metrics.bags.writer import CHUNK_PERIOD, bag_topics
