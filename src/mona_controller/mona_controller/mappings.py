@@ -14,15 +14,8 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from typing import Any, TypeVar
 
+from mona_controller import schema
 from mona_controller.keys import moved_keys, relocate, renamed
-from mona_controller.schema import (
-    ParameterError,
-    Spec,
-    named_sections,
-    parameter_fields,
-    section_mapping,
-    spec_of,
-)
 
 T = TypeVar('T')
 
@@ -41,14 +34,14 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
     if moved:  # a whole parameter file: keys that moved go to their new sections
         mapping = relocate(mapping, moved)
     mapping = renamed(cls, mapping, prefix)
-    known = {f.name: f for f in parameter_fields(cls) if 'sections' not in f.metadata}
-    named = named_sections(cls)
+    known = {f.name: f for f in schema.parameter_fields(cls) if 'sections' not in f.metadata}
+    named = schema.named_sections(cls)
     unknown = sorted(set(mapping) - set(known) - set(named))
     if unknown:
         new = getattr(cls, 'MOVED', {}).get(unknown[0])
         if new:
-            raise ParameterError(f'{prefix}{unknown[0]} moved to {new}: give it there')
-        raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
+            raise schema.ParameterError(f'{prefix}{unknown[0]} moved to {new}: give it there')
+        raise schema.ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
                              f'{prefix or "the top level"}: '
                              f'{", ".join(sorted({*known, *named}))}')
     values: dict[str, Any] = {}
@@ -56,20 +49,20 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = 
         if name in named:
             held, section = named[name]
             values.setdefault(held, []).append((name, from_mapping(
-                section, section_mapping(value, prefix + name), f'{prefix}{name}.')))
+                section, schema.section_mapping(value, prefix + name), f'{prefix}{name}.')))
             continue
         field = known[name]
-        if spec_of(field) is None:
+        if schema.spec_of(field) is None:
             factory = field.default_factory
             assert callable(factory), f'{prefix}{name}: a section field needs a default_factory'
-            value = from_mapping(type(factory()), section_mapping(value, prefix + name),
+            value = from_mapping(type(factory()), schema.section_mapping(value, prefix + name),
                                  f'{prefix}{name}.')
         values[name] = value
     try:
         return cls(**values)
-    except ParameterError as error:
+    except schema.ParameterError as error:
         if prefix and not str(error).startswith(prefix):
-            raise ParameterError(prefix + str(error)) from None
+            raise schema.ParameterError(prefix + str(error)) from None
         raise
 
 
@@ -82,12 +75,12 @@ def merged(cls: type, base: Mapping[str, Any], changes: Mapping[str, Any],
     if not prefix:  # a whole parameter file: keys that moved go to their new sections
         changes = relocate(changes, moved_keys(cls))
     out = dict(base)
-    named = named_sections(cls)
-    fields = {f.name: f for f in parameter_fields(cls)}
+    named = schema.named_sections(cls)
+    fields = {f.name: f for f in schema.parameter_fields(cls)}
     for key, value in renamed(cls, dict(changes), prefix).items():
         field = fields.get(key)
         sub = named[key][1] if key in named else \
-            type(field.default_factory()) if field is not None and spec_of(field) is None \
+            type(field.default_factory()) if field is not None and schema.spec_of(field) is None \
             and callable(field.default_factory) else None
         if sub is not None and isinstance(value, Mapping):
             below = out.get(key)
@@ -101,9 +94,9 @@ def merged(cls: type, base: Mapping[str, Any], changes: Mapping[str, Any],
 def to_mapping(section: Any) -> dict[str, Any]:
     """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
     out: dict[str, Any] = {}
-    for field in parameter_fields(section):
+    for field in schema.parameter_fields(section):
         value = getattr(section, field.name)
-        spec = spec_of(field)
+        spec = schema.spec_of(field)
         if 'sections' in field.metadata:
             out.update({name: to_mapping(held) for name, held in value})
         elif spec is None:
@@ -115,7 +108,7 @@ def to_mapping(section: Any) -> dict[str, Any]:
     return out
 
 
-def flat_fields(cls: type, prefix: str = '') -> Iterator[tuple[str, Any, Spec]]:
+def flat_fields(cls: type, prefix: str = '') -> Iterator[tuple[str, Any, schema.Spec]]:
     """Every leaf field as (dotted name, default, spec), for declaring ROS parameters."""
     yield from _leaves(cls(), prefix)
 
@@ -140,7 +133,7 @@ def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') ->
     """
     try:
         theirs = from_mapping(type(section), announced, prefix)
-    except ParameterError as error:
+    except schema.ParameterError as error:
         return [f'the announced {prefix.rstrip(".") or "section"} is not valid here: {error}']
     mine_flat, theirs_flat = leaves(section, prefix), leaves(theirs, prefix)
     return [f'{name}: announced {theirs_flat.get(name)!r}, here {value!r}'
@@ -152,10 +145,10 @@ def leaves(section: Any, prefix: str = '') -> dict[str, Any]:
     return {name: value for name, value, _ in _leaves(section, prefix)}
 
 
-def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
+def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, schema.Spec]]:
     """Every leaf field of an instance as (dotted name, value, spec)."""
-    for field in parameter_fields(section):
-        spec = spec_of(field)
+    for field in schema.parameter_fields(section):
+        spec = schema.spec_of(field)
         value = getattr(section, field.name)
         if 'sections' in field.metadata:
             for name, held in value:

@@ -25,15 +25,7 @@ from rclpy.parameter import Parameter
 from rclpy.task import Future
 from std_msgs.msg import Bool, String, UInt8
 
-from mona_controller.contract import (
-    Announcement,
-    ContractError,
-    RecorderBook,
-    RecorderReport,
-    WorldState,
-    WorldStatus,
-    recorder_names,
-)
+from mona_controller import contract
 from mona_controller.mona import MonaParams
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
@@ -67,7 +59,7 @@ class EpisodeHost(Node):
 
         self.topics = WorldTopics(self, self.world.arena)  # the obstacles go out at once
         self.create_subscription(String, qos.EPISODE, self.on_episode, qos.EPISODE_QOS)
-        self.recorders = RecorderBook(recorder_names(self.options.recorders))
+        self.recorders = contract.RecorderBook(contract.recorder_names(self.options.recorders))
         self.create_subscription(String, qos.RECORDERS, self.on_recorder, qos.RECORDERS_QOS)
         self.clock_ns = round(self.options.clock_period * 1e9)  # publishing periods
         self.map_ns = round(self.options.map_period * 1e9)
@@ -75,8 +67,8 @@ class EpisodeHost(Node):
 
         self.links: list[RobotLink] = []
         self.episode = -1
-        self.announcement: Announcement | None = None
-        self.state = WorldState.WAITING
+        self.announcement: contract.Announcement | None = None
+        self.state = contract.WorldState.WAITING
         self.error = ''
         self.start_ns = 0  # absolute sim time of the episode's step 0
         self.time_ns = 0  # absolute sim time now (monotonic across episodes)
@@ -104,8 +96,8 @@ class EpisodeHost(Node):
     def on_episode(self, msg: String) -> None:
         """Start the announced episode, or finish on the shutdown announcement."""
         try:
-            announcement = Announcement.from_json(msg.data)
-        except ContractError as error:
+            announcement = contract.Announcement.from_json(msg.data)
+        except contract.ContractError as error:
             self.get_logger().error(f'ignoring /episode: {error}')
             return
         if announcement.shutdown:
@@ -137,7 +129,7 @@ class EpisodeHost(Node):
         while len(self.links) < population:
             self.links.append(RobotLink(self, len(self.links), self.mona, self.on_state,
                                         self.on_cleaner, self.on_cmd))
-        self.state = WorldState.WAITING
+        self.state = contract.WorldState.WAITING
         self.error = ''
         self.publish_status()
         self.get_logger().info(f'episode {self.episode}: {population} robots, seed '
@@ -152,15 +144,15 @@ class EpisodeHost(Node):
         """The world's parameter sections by name, as an announcement carries them."""
         return {'world': self.params, 'mona': self.mona, 'sensing': self.sensing}
 
-    def _check_announcement(self, announcement: Announcement) -> str:
+    def _check_announcement(self, announcement: contract.Announcement) -> str:
         """What this world cannot play of a well-formed announcement ('' = nothing)."""
         return unplayable(announcement, self.time_ns, self.sections)
 
     def on_recorder(self, msg: String) -> None:
         """A recorder's report: it records the episode, how far, or that it closed it."""
         try:
-            self.recorders.update(RecorderReport.from_json(msg.data))
-        except ContractError as error:
+            self.recorders.update(contract.RecorderReport.from_json(msg.data))
+        except contract.ContractError as error:
             self.get_logger().warning(str(error), throttle_duration_sec=5.0)
 
     def _not_recording(self) -> list[str]:
@@ -194,7 +186,7 @@ class EpisodeHost(Node):
     def _begin(self) -> None:
         """Publish the episode's start (t = 0's cue map, sources, states and poses), then
         step once every recorder has recorded it (:meth:`_held_by_recorders`)."""
-        self.state = WorldState.RUNNING
+        self.state = contract.WorldState.RUNNING
         self.publish_clock()
         self.publish_map()
         self.publish_status()
@@ -204,7 +196,7 @@ class EpisodeHost(Node):
 
     def _finish(self) -> None:
         self._stop_timers()
-        self.state = WorldState.FINISHED
+        self.state = contract.WorldState.FINISHED
         self.publish_map()
         self.publish_status()
         self._write_final()
@@ -216,7 +208,7 @@ class EpisodeHost(Node):
         """Report an error on /world/status; a fatal one ends the node with status 1."""
         self.get_logger().error(error)
         self._stop_timers()
-        self.state = WorldState.FAILED
+        self.state = contract.WorldState.FAILED
         self.error = error
         self.publish_status()
         if fatal and not self.finished.done():
@@ -264,7 +256,7 @@ class EpisodeHost(Node):
         """Publish the cue map, its occupancy grid, the sources and the robot markers."""
         self.topics.map(self.world, self.params.cell_size, self.states, self.mona.body_radius,
                         self.palette, self.time_ns)
-        if self.state is WorldState.FINISHED:  # the last poses, which no readings round carries
+        if self.state is contract.WorldState.FINISHED:  # the last poses: no readings round's
             self._publish_poses()
 
     def _publish_poses(self) -> None:
@@ -276,7 +268,7 @@ class EpisodeHost(Node):
     def publish_status(self) -> None:
         """Publish /world/status with the lockstep counters."""
         counters = self.lockstep.counters()
-        status = WorldStatus(
+        status = contract.WorldStatus(
             self.episode, self.state, step=self.world.steps, steps=self.total_steps,
             time_ns=self.time_ns, mode=self.options.mode, misses=tuple(counters['misses']),
             absent=tuple(counters['absent']), dropped=counters['dropped'],
