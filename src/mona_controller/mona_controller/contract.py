@@ -15,11 +15,13 @@ import json
 import math
 import warnings
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, cast
 
 from mona_controller import topics
-from mona_controller.controllers.base import State, states_for
+from mona_controller.controllers.base import Colour, State, states_for
 
+#: Robot poses as an announcement carries them: (x m, y m, yaw rad) per robot.
+Poses = tuple[tuple[float, float, float], ...]
 #: The world frame (REP 103: origin at an arena corner, x and y along the walls).
 WORLD_FRAME = 'world'
 
@@ -83,7 +85,7 @@ class WorldStatus:
         return json.dumps(document)
 
     @classmethod
-    def from_dict(cls, document: dict) -> WorldStatus:
+    def from_dict(cls, document: dict[str, Any]) -> WorldStatus:
         """Parse a decoded status.
 
         Raises:
@@ -193,12 +195,12 @@ class Announcement:
     population: int = 0
     duration: float = 0.0  #: s of sim time
     start_ns: int = 0  #: sim time of the episode's t = 0
-    poses: tuple[tuple[float, float, float], ...] = ()  #: [x, y, yaw] per robot, world frame
-    parameters: dict = dataclasses.field(default_factory=dict)  #: every section
+    poses: Poses = ()  #: [x, y, yaw] per robot, world frame
+    parameters: dict[str, Any] = dataclasses.field(default_factory=dict)  #: every section
     states: tuple[State, ...] = ()  #: the kind's states, by code
     #: The plug-ins the run loaded (:meth:`mona_controller.plugins.Plugin.to_dict` records):
     #: what an analysis must load to recompute it. Left out of the message when empty.
-    plugins: tuple[dict, ...] = ()
+    plugins: tuple[dict[str, Any], ...] = ()
 
     @property
     def key(self) -> tuple[int, int, int]:
@@ -220,7 +222,7 @@ class Announcement:
         return json.dumps(document)
 
     @classmethod
-    def from_dict(cls, document: dict) -> Announcement:
+    def from_dict(cls, document: dict[str, Any]) -> Announcement:
         """Parse a decoded announcement.
 
         Raises:
@@ -244,8 +246,9 @@ class Announcement:
                                duration=float(document['duration']),
                                start_ns=int(document['start_ns']), poses=poses,
                                parameters=parameters, plugins=tuple(plugins),
-                               states=tuple(State(str(state['name']),
-                                                  tuple(float(c) for c in state['colour']))
+                               states=tuple(State(str(state['name']), cast(
+                                                  Colour, tuple(float(c) for c in
+                                                                state['colour'])))
                                             for state in document.get('states', ())))
         except KeyError as error:
             raise ContractError(f'the episode announcement has no {error.args[0]!r}') from None

@@ -88,7 +88,7 @@ def sections(lookup: Callable[[], Mapping[str, type]], *, doc: str) -> Any:
     return dataclasses.field(default=(), metadata={'sections': lookup, 'doc': doc})
 
 
-def spec_of(field: dataclasses.Field) -> Spec | None:
+def spec_of(field: dataclasses.Field[Any]) -> Spec | None:
     """The :class:`Spec` of a field made with :func:`param` (None for a nested section)."""
     return field.metadata.get('spec')
 
@@ -98,7 +98,7 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
 NOT_A_PARAMETER = {'parameter': False}
 
 
-def parameter_fields(section: Any) -> tuple[dataclasses.Field, ...]:
+def parameter_fields(section: Any) -> tuple[dataclasses.Field[Any], ...]:
     """The fields of a section (class or instance) that are parameters or sections."""
     return tuple(field for field in dataclasses.fields(section)
                  if field.metadata.get('parameter', True))

@@ -261,9 +261,9 @@ SKELETON = """  /**:
 
 def _sections_of(names: Any) -> str:
     """For keys that are parameters rather than sections, where each belongs ('' if none)."""
-    homes = {}
+    homes: dict[str, list[str]] = {}
     for section in parameter_fields(SwarmConfig):
-        for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc]
+        for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc, operator]
             homes.setdefault(field.name, []).append(f'{section.name}.{field.name}')
     found = [' or '.join(homes[name]) for name in names if isinstance(name, str)
              and name in homes]

@@ -29,7 +29,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -222,7 +222,7 @@ class Arena:
 COUNTS = {'disc': 3, 'rect': 4, 'polygon': None}
 
 
-def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
+def parse_obstacles(given: Sequence[tuple[str, tuple[Any, ...]]], side: float,
                     sources: Sequence[tuple[str, float, float]] = (),
                     prefix: str = 'world.obstacles.') -> tuple[Obstacle, ...]:
     """The obstacles of ``world.obstacles`` (name, values) pairs, in name order.
@@ -256,7 +256,7 @@ def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
     return tuple(obstacles)
 
 
-def _parse(where: str, name: str, values: tuple, side: float) -> Obstacle:
+def _parse(where: str, name: str, values: tuple[Any, ...], side: float) -> Obstacle:
     """One obstacle from [kind, numbers...] or [numbers...]."""
     if values and isinstance(values[0], str):
         kind, numbers = values[0], values[1:]

@@ -17,6 +17,7 @@ static shapes of the space's static body, neither elastic nor rough.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numba
 import numpy as np
@@ -107,7 +108,7 @@ class Physics:
             space.remove(*space.shapes, *space.bodies)
 
     @staticmethod
-    def _batched(fields: pymunk.batch.BodyFields, buffer: pymunk.batch.Buffer):
+    def _batched(fields: pymunk.batch.BodyFields, buffer: pymunk.batch.Buffer) -> Any:
         """The argument block of pymunk's batched body iterators for ``buffer``."""
         data = ffi.new('pmBatchedData *')
         data.fields = fields.value
@@ -177,7 +178,9 @@ def static_shape(body: pymunk.Body, obstacle: Obstacle) -> pymunk.Shape:
 
 
 @numba.njit(cache=True)
-def _wrench_kernel(linear, angular, trig, twist, rows, scale, wrench):  # pragma: no cover
+def _wrench_kernel(linear: np.ndarray, angular: np.ndarray, trig: np.ndarray, twist: np.ndarray,
+                   rows: np.ndarray, scale: np.ndarray,
+                   wrench: np.ndarray) -> None:  # pragma: no cover - jitted
     """Robot i's wrench into wrench[rows[i]]: the force and torque that take its velocity
     (twist) to the command (linear along its heading, whose cos and sin are trig[i], and
     angular) within one step."""

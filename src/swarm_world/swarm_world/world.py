@@ -198,7 +198,7 @@ class World:
     def clearance(self, poses: np.ndarray) -> np.ndarray:
         """[N] how far each robot's centre is from the nearest wall or obstacle (m)."""
         x, y, side = poses[:, 0], poses[:, 1], self.params.arena_side
-        walls = np.minimum(np.minimum(x, y), np.minimum(side - x, side - y))
+        walls: np.ndarray = np.minimum(np.minimum(x, y), np.minimum(side - x, side - y))
         if not self.arena.obstacles:
             return walls
         return np.array([self.arena.clearance(px, py) for px, py in poses[:, :2].tolist()])

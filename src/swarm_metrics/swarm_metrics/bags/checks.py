@@ -147,7 +147,7 @@ def check_online(metrics: Mapping[str, Sequence[tuple[int, float]]], start_ns: i
 
 # --- the other checks ---------------------------------------------------------------------
 
-def check_finished(statuses: Sequence[tuple[int, dict]], episode: int,
+def check_finished(statuses: Sequence[tuple[int, dict[str, Any]]], episode: int,
                    start_ns: int = 0) -> list[Finding]:
     """The ``finished`` check: a /world/status says ``finished`` for ``episode``.
 
@@ -170,7 +170,8 @@ def check_finished(statuses: Sequence[tuple[int, dict]], episode: int,
                     f'record may end before the episode did')]
 
 
-def check_cleaning(statuses: Sequence[tuple[int, dict]], cleaning: Sequence[int], episode: int,
+def check_cleaning(statuses: Sequence[tuple[int, dict[str, Any]]], cleaning: Sequence[int],
+                   episode: int,
                    start_ns: int = 0) -> list[Finding]:
     """The ``cleaning`` check: the bag holds as many /world/cleaning events up to the world's
     ``finished`` status as that status counts (``cleaning_events``; a world that does not
@@ -182,7 +183,7 @@ def check_cleaning(statuses: Sequence[tuple[int, dict]], cleaning: Sequence[int]
         episode: the episode number the announcement gives.
         start_ns: sim time of t = 0, to report times.
     """
-    final: dict = next((status for _, status in reversed(statuses)
+    final: dict[str, Any] = next((status for _, status in reversed(statuses)
                         if status.get('episode') == episode
                         and status.get('state') == 'finished'), {})
     counted, end_ns = final.get('cleaning_events'), final.get('time_ns')

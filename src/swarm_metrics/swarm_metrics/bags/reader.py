@@ -80,7 +80,7 @@ def decode(message: RawMessage) -> Any:
                        f'{message.log_time / 1e9:.3f} s cannot be decoded ({error})') from None
 
 
-def decode_json(message: RawMessage) -> dict:
+def decode_json(message: RawMessage) -> dict[str, Any]:
     """A std_msgs/String message holding a JSON object (/episode, /world/status)."""
     try:
         value = json.loads(decode(message).data)
@@ -117,8 +117,8 @@ class EpisodeBag:
     path: Path  #: the .mcap file
     report: ScanReport
     custom: dict[str, str]  #: rosbag2 custom_data (metadata.yaml, else the MCAP's copy)
-    announcement: dict | None = None  #: the supervisor's /episode message
-    status: list[tuple[int, dict]] = dataclasses.field(default_factory=list)
+    announcement: dict[str, Any] | None = None  #: the supervisor's /episode message
+    status: list[tuple[int, dict[str, Any]]] = dataclasses.field(default_factory=list)
     poses: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
     cleaning: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
     cue_maps: list[tuple[int, np.ndarray]] = dataclasses.field(default_factory=list)
@@ -133,28 +133,33 @@ class EpisodeBag:
     def seed(self) -> int | None:
         """The episode seed (from the announcement, else from custom_data)."""
         if self.announcement is not None and 'seed' in self.announcement:
-            return self.announcement['seed']
+            seed: int = self.announcement['seed']
+            return seed
         value = self.custom.get(CUSTOM_PREFIX + 'seed')
         return int(value) if value is not None and value.isdigit() else None
 
     @property
-    def parameters(self) -> dict | None:
+    def parameters(self) -> dict[str, Any] | None:
         """Every parameter by section (from the announcement, else from custom_data)."""
         if self.announcement is not None and 'parameters' in self.announcement:
-            return self.announcement['parameters']
+            parameters: dict[str, Any] = self.announcement['parameters']
+            return parameters
         try:
-            return json.loads(self.custom[CUSTOM_PREFIX + 'parameters'])
+            parameters = json.loads(self.custom[CUSTOM_PREFIX + 'parameters'])
+            return parameters
         except (KeyError, ValueError):
             return None
 
     @property
-    def plugins(self) -> list:
+    def plugins(self) -> list[Any]:
         """The plug-in records of the run (from the announcement, else from custom_data;
         none if it recorded none)."""
         if self.announcement is not None and 'parameters' in self.announcement:
-            return self.announcement.get('plugins') or []
+            plugins: list[Any] = self.announcement.get('plugins') or []
+            return plugins
         try:
-            return json.loads(self.custom[CUSTOM_PREFIX + 'plugins'])
+            plugins = json.loads(self.custom[CUSTOM_PREFIX + 'plugins'])
+            return plugins
         except (KeyError, ValueError):
             return []
 
@@ -165,7 +170,7 @@ class EpisodeBag:
                 np.array([v for _, v in rows], dtype=np.float64))
 
 
-def _sample_ns(announcement: dict) -> int | None:
+def _sample_ns(announcement: dict[str, Any]) -> int | None:
     """The metrics sample period (ns) an announcement declares, if it is well formed."""
     try:
         period = float(announcement['parameters']['metrics']['sample_period'])

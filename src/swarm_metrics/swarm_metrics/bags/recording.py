@@ -24,6 +24,7 @@ from __future__ import annotations
 import bisect
 import collections
 from pathlib import Path
+from typing import Any, cast
 
 from mona_controller.contract import ContractError, WorldState, WorldStatus
 from mona_controller.topics import (
@@ -88,6 +89,11 @@ class Recorder:
         self._early_status: tuple[WorldStatus, bytes] | None = None
         self._obstacles: bytes | None = None  # the world's latest /world/obstacles
 
+    @property
+    def _current(self) -> EpisodeRecord:
+        """The open episode: the private steps below run only while one is open."""
+        return cast(EpisodeRecord, self.episode)
+
     # --- episodes -------------------------------------------------------------------
 
     def announce(self, data: bytes) -> Announced:
@@ -115,7 +121,7 @@ class Recorder:
         """The folder that receives episode ``episode``'s bag (a subclass may choose another)."""
         return self.output_dir / f'episode_{episode}'
 
-    def _open(self, setup: EpisodeSetup, document: dict, data: bytes) -> list[Row]:
+    def _open(self, setup: EpisodeSetup, document: dict[str, Any], data: bytes) -> list[Row]:
         folder = self.episode_folder(setup.episode)
         folder.mkdir(parents=True, exist_ok=True)
         path, n = folder / 'bag', 1
@@ -192,7 +198,7 @@ class Recorder:
         return self._apply_status(status, data)
 
     def _apply_status(self, status: WorldStatus, data: bytes) -> tuple[bool, list[Row]]:
-        episode = self.episode
+        episode = self._current
         self.write(STATUS, self.now_ns, data)
         if status.cleaning_events is None:  # a world that does not count: trust the order
             episode.replica.confirmed_ns = NEVER
@@ -210,7 +216,7 @@ class Recorder:
         """Take the samples up to the world's latest count once every cleaning event it
         counted is here (the cleaning events and the poses travel on two topics, and after a
         stall their repairs can come in any order)."""
-        episode = self.episode
+        episode = self._current
         if episode.counted is None:
             return []
         time_ns, count = episode.counted
@@ -257,7 +263,7 @@ class Recorder:
         self._early.append((topic, data))
 
     def _poses(self, stamp: int, data: bytes) -> list[Row]:
-        episode = self.episode
+        episode = self._current
         episode.last_pose_ns = max(episode.last_pose_ns, stamp)
         poses = None
         if episode.replica.due(stamp):
@@ -280,7 +286,7 @@ class Recorder:
 
     def _want_states(self, stamp: int) -> None:
         """The open episode's next pose is a sample at ``stamp``: record its states there."""
-        data = self.episode.pose_sampled(stamp)
+        data = self._current.pose_sampled(stamp)
         if data is not None:
             self._write_states(stamp, data)
 
@@ -296,8 +302,8 @@ class Recorder:
 
     def _write_states(self, stamp: int, data: bytes) -> None:
         self.write(ROBOT_STATES, stamp, data)
-        if stamp == self.episode.setup.start_ns:
-            self.episode.started.add(ROBOT_STATES)
+        if stamp == self._current.setup.start_ns:
+            self._current.started.add(ROBOT_STATES)
 
     def sources(self, data: bytes) -> None:
         """A /world/sources message: recorded at its markers' stamp, as often as the cue map
@@ -314,7 +320,7 @@ class Recorder:
             self.periodic(SOURCES, data, stamp)
 
     def _cleaning(self, stamp: int, data: bytes) -> list[Row]:
-        episode = self.episode
+        episode = self._current
         episode.replica.cleaning(stamp, poses_of(decode(RawMessage(CLEANING, POSE_ARRAY, stamp,
                                                                    data))))
         self.write(CLEANING, stamp, data)
@@ -333,8 +339,8 @@ class Recorder:
             self._write_obstacles()
 
     def _write_obstacles(self) -> None:
-        self.write(OBSTACLES, self.episode.setup.start_ns, self._obstacles)
-        self.episode.obstacles = True
+        self.write(OBSTACLES, self._current.setup.start_ns, cast(bytes, self._obstacles))
+        self._current.obstacles = True
 
     def periodic(self, topic: str, data: bytes, stamp: int | None = None) -> None:
         """Record a /clock, /world/cue_map or /world/sources message (``stamp``: its time,
@@ -369,9 +375,9 @@ class Recorder:
     def _samples(self, rows: list[Row]) -> list[Row]:
         """Record metric rows in the bag; return them."""
         for log_ns, row in rows:
-            for name in self.episode.metrics:
+            for name in self._current.metrics:
                 self.write(metric_topic(name), log_ns, float64_cdr(float(row[name])))
-            self.episode.samples += 1
+            self._current.samples += 1
         return rows
 
     def write(self, topic: str, log_ns: int, data: bytes) -> None:
@@ -382,7 +388,7 @@ class Recorder:
         self.episode.bag.write(topic, log_ns, data)
 
     def _add_topic(self, topic: str) -> None:
-        bag = self.episode.bag
+        bag = self._current.bag
         if not bag.has_topic(topic):
             entry = topic_of(topic)
             if entry is None:

@@ -25,7 +25,7 @@ import shutil
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
@@ -50,7 +50,7 @@ class RecoveryReport:
     size: int  #: bytes of the source file
     good_bytes: int  #: bytes of the source up to the end of the last intact record
     messages: int
-    topics: Counter
+    topics: Counter[str]
     first_ns: int | None
     last_ns: int | None
     skipped_chunks: list[str]
@@ -76,7 +76,7 @@ class RecoveryReport:
         """Whether a message of the source file is missing from the recovered bag."""
         return bool(self.lost) or self.skipped_messages > 0
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """What was lost, for the recovered bag's ``recovered`` entry and for tools."""
         return {'source': str(self.source), 'kept_bytes': self.good_bytes, 'size': self.size,
                 'messages': self.messages, 'skipped_chunks': len(self.skipped_chunks),
@@ -144,7 +144,7 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     if first is None:
         raise BagError(f'{mcap}: nothing to recover: {scan.report.problem or "no messages"} '
                        f'({scan.report.readable()})')
-    topics: Counter = Counter()
+    topics: Counter[str] = Counter()
     skipped, announcement = 0, None
     try:
         with EpisodeBagWriter(target) as bag:
@@ -186,7 +186,7 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     return report
 
 
-def _qos(scan: McapScan, topic: str) -> list:
+def _qos(scan: McapScan, topic: str) -> list[Any]:
     """The offered QoS profiles recorded with ``topic`` (none if unreadable)."""
     for known in scan.topics.values():
         if known.topic == topic and known.offered_qos:

@@ -21,6 +21,7 @@ from collections import Counter
 from collections.abc import Iterator
 from io import BytesIO
 from pathlib import Path
+from typing import Any, BinaryIO
 
 import yaml
 from mcap.data_stream import ReadDataStream
@@ -74,7 +75,7 @@ class ScanReport:
     chunks: int = 0
     bad_chunks: list[str] = dataclasses.field(default_factory=list)
     bad_chunk_offsets: list[int] = dataclasses.field(default_factory=list)  #: their bytes
-    topics: Counter = dataclasses.field(default_factory=Counter)
+    topics: Counter[str] = dataclasses.field(default_factory=Counter)
     first_ns: int | None = None
     last_ns: int | None = None
     good_bytes: int = 0  #: the file up to the end of the last intact record
@@ -110,7 +111,7 @@ class McapScan:
         self._chunk_offsets: list[int] = []
         self._indexed_offsets: list[int] = []
         self._statistics: Statistics | None = None
-        self._counts: Counter = Counter()  # by channel id
+        self._counts: Counter[int] = Counter()  # by channel id
 
     def know(self, schemas: dict[int, str], channels: list[Channel]) -> None:
         """Take schemas (id -> name) and channels from elsewhere (the summary of a damaged
@@ -148,7 +149,7 @@ class McapScan:
             raise (TruncatedBagError if truncated else BagError)(text)
         self.report.problem = text
 
-    def _record(self, handle) -> tuple[int, int, bytes] | None:
+    def _record(self, handle: BinaryIO) -> tuple[int, int, bytes] | None:
         """The next (offset, opcode, body), or None (after :meth:`_fail`) if it is cut off."""
         offset = handle.tell()
         head = handle.read(9)
@@ -165,7 +166,7 @@ class McapScan:
             return None
         return offset, opcode, handle.read(length)
 
-    def _scan(self, handle) -> Iterator[RawMessage]:
+    def _scan(self, handle: BinaryIO) -> Iterator[RawMessage]:
         magic = handle.read(8)
         if magic != MAGIC:
             if MAGIC.startswith(magic):
@@ -224,7 +225,7 @@ class McapScan:
                            f'{where}: the file is damaged')
                 return
 
-    def _chunk(self, offset: int, body: bytes) -> list | None:
+    def _chunk(self, offset: int, body: bytes) -> list[Any] | None:
         """The records of a chunk, checked (CRC, sizes); None if it is damaged."""
         try:
             stream = ReadDataStream(BytesIO(body))
@@ -242,7 +243,7 @@ class McapScan:
                 self._fail(text, damaged=True)
             return None
 
-    def _messages(self, records: list) -> list[RawMessage] | None:
+    def _messages(self, records: list[Any]) -> list[RawMessage] | None:
         """The messages of one chunk's records, registering its schemas and channels."""
         out = []
         for item in records:
@@ -294,7 +295,7 @@ class McapScan:
             return False
         return True
 
-    def _finish(self, handle, offset: int) -> None:
+    def _finish(self, handle: BinaryIO, offset: int) -> None:
         """Check the footer's trailing magic and that the summary agrees with the data."""
         tail = handle.read()
         if tail != MAGIC:

@@ -301,10 +301,10 @@ def replay(args: argparse.Namespace) -> int:
     if findings:
         hint = ('replaying it anyway (--allow-incomplete)' if args.allow_incomplete
                 else '--allow-incomplete replays it anyway')
-        error = IncompleteBagError(mcap, findings, hint, note)
+        incomplete = IncompleteBagError(mcap, findings, hint, note)
         if not args.allow_incomplete:
-            return _bad_bag('replay', error, INCOMPLETE)
-        print(f'warning: {error}', file=sys.stderr)
+            return _bad_bag('replay', incomplete, INCOMPLETE)
+        print(f'warning: {incomplete}', file=sys.stderr)
     elif note:
         print(f'note: {note}', file=sys.stderr)
     try:

@@ -27,13 +27,14 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from typing import cast
 
 import foxglove
 from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
 from mona_controller import topics
-from mona_controller.contract import Announcement, WorldState, WorldStatus
+from mona_controller.contract import Announcement, Poses, WorldState, WorldStatus
 from mona_controller.controllers import states_of
 from mona_controller.topics import (
     CLOCK,
@@ -223,7 +224,7 @@ class LiveView(EpisodeObserver):
         self.announcement = string_cdr(Announcement(
             0, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
-            poses=tuple(map(tuple, episode.initial_poses.tolist())),
+            poses=cast(Poses, tuple(map(tuple, episode.initial_poses.tolist()))),
             parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
             states=states_of(config.controller.kind)).to_json())
         self.obstacles = obstacles_cdr(episode.world.arena)

@@ -18,12 +18,13 @@ import dataclasses
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from rosbags.interfaces import Qos
 
 from mona_controller import topics
-from mona_controller.contract import Announcement, WorldState, WorldStatus
+from mona_controller.contract import Announcement, Poses, WorldState, WorldStatus
 from mona_controller.controllers import states_of
 from mona_controller.topics import CLEANING, CLOCK, CUE_MAP, POSES
 from swarm_metrics.bags.record import Closed
@@ -142,7 +143,7 @@ class BagRecorder(EpisodeObserver):
         announcement = Announcement(
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
-            poses=tuple(map(tuple, episode.initial_poses.tolist())),
+            poses=cast(Poses, tuple(map(tuple, episode.initial_poses.tolist()))),
             parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
             states=states_of(config.controller.kind))
         try:

@@ -227,7 +227,7 @@ def render_videos(out: Path, specs: Sequence[EpisodeSpec], progress: bool | None
     ``out/videos/<episode>.mp4`` (an existing one is kept)."""
     from swarm_supervisor.media.video import animate  # video libraries only when asked
 
-    first = {}
+    first: dict[tuple[Any, ...], Any] = {}
     for spec in specs:
         first.setdefault((spec.population, spec.speed, spec.levels), spec)
     paths = []

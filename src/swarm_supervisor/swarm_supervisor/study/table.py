@@ -183,7 +183,9 @@ def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) ->
     """
     folders = [Path(folder) for folder in folders]
     factors = list(varying_parameters(folders) if factors is None else factors)
-    frames, seen, shared = [], {}, []
+    frames: list[pd.DataFrame] = []
+    seen: dict[str, Path] = {}
+    shared: list[Any] = []
     for folder in folders:
         key = episode_key(folder, factors)
         identity = json.dumps(list(key.values()))

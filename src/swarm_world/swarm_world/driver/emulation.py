@@ -22,6 +22,7 @@ import socket
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -82,7 +83,7 @@ class DelayLine:
             self.count += 1
             heapq.heappush(self.queue, Delayed(now + self.latency, self.count, data))
 
-    def due(self, now: float) -> list:
+    def due(self, now: float) -> list[Any]:
         """What arrives by ``now``, in order."""
         out = []
         while self.queue and self.queue[0].due <= now:

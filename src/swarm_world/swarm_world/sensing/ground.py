@@ -10,6 +10,7 @@ plain-Python reference of the IR ring; docs/model.md, "Sensors").
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
@@ -24,8 +25,9 @@ NO_NOISE = np.zeros((0, 2))
 
 
 @numba.njit(cache=True)
-def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
-                  out):  # pragma: no cover - jitted
+def ground_kernel(cue: np.ndarray, cell_size: float, poses: np.ndarray, trig: np.ndarray,
+                  geometry: np.ndarray, table: np.ndarray, noise: np.ndarray,
+                  out: np.ndarray) -> np.ndarray:  # pragma: no cover - jitted
     """The compiled core of :func:`ground_readings`, into ``out`` [N, 2] uint8.
 
     Args:
@@ -90,8 +92,11 @@ def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray, mona: 
 
 
 @numba.njit(cache=True)
-def ground_many_kernel(fields, bounds, cell_size, geometry, tables, tabled, poses, trig,
-                       noise, noisy, out):  # pragma: no cover - jitted
+def ground_many_kernel(fields: Any, bounds: np.ndarray, cell_size: np.ndarray,
+                       geometry: np.ndarray, tables: np.ndarray, tabled: np.ndarray,
+                       poses: np.ndarray, trig: np.ndarray, noise: np.ndarray,
+                       noisy: np.ndarray, out: np.ndarray
+                       ) -> np.ndarray:  # pragma: no cover - jitted
     """:func:`ground_kernel` for several arenas in one call (the batched engine).
 
     Args:

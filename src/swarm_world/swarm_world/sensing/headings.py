@@ -12,7 +12,7 @@ import numpy as np
 
 
 @numba.njit(cache=True)
-def heading_trig(poses):  # pragma: no cover - jitted
+def heading_trig(poses: np.ndarray) -> np.ndarray:  # pragma: no cover - jitted
     """[N, 2]: each robot's (cos, sin) of its heading. The ground sensors, the IR ring and the
     wheels' force all need them; a batch works them out once per step for all three."""
     trig = np.empty((poses.shape[0], 2))

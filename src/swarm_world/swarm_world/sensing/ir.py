@@ -13,6 +13,7 @@ and :mod:`swarm_world.reference` holds a plain-Python reference.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
@@ -21,12 +22,18 @@ from swarm_world.arena import ObstacleArrays, pack
 from swarm_world.sensing.headings import heading_trig
 from swarm_world.sensing.rays import MARGIN, cast_obstacles, near_any, ray_walls
 
+#: The IR kernels' results: ranges [N, K] float32, is_robot [N, K] bool.
+Pair = tuple[np.ndarray, np.ndarray]
+#: The work arrays of :func:`_cast`: cell, start, members, beams, exact.
+Scratch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 #: No obstacles (the bare square): what the IR kernels take when there are none.
 NO_OBSTACLES = pack([])
 
 
 @numba.njit(cache=True)
-def _cell_lists(poses, arena_side, min_width, cell, start, members):  # pragma: no cover
+def _cell_lists(poses: np.ndarray, arena_side: float, min_width: float, cell: np.ndarray,
+                start: np.ndarray, members: np.ndarray
+                ) -> tuple[int, float]:  # pragma: no cover - jitted
     """Bucket the robots into a uniform grid of square cells at least ``min_width`` wide.
 
     Returns (columns, width): the robots of cell c = row * columns + col are
@@ -59,13 +66,13 @@ def _cell_lists(poses, arena_side, min_width, cell, start, members):  # pragma: 
 
 
 @numba.njit(cache=True)
-def _most_columns(n):  # pragma: no cover - jitted
+def _most_columns(n: int) -> int:  # pragma: no cover - jitted
     """The most grid columns :func:`_cell_lists` uses for n robots."""
     return int(math.sqrt(16.0 * n)) + 1
 
 
 @numba.njit(cache=True)
-def _cell_of(coordinate, width, columns):  # pragma: no cover - jitted
+def _cell_of(coordinate: float, width: float, columns: int) -> int:  # pragma: no cover
     """The grid column (or row) of a coordinate, clamped to the grid (NaN -> 0)."""
     if not coordinate > 0.0:
         return 0
@@ -79,16 +86,20 @@ TRUSTED_HEADING = 1e4
 
 
 @numba.njit(cache=True)
-def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
-                      geometry, ranges, is_robot):  # pragma: no cover - jitted
+def _proximity_kernel(poses: np.ndarray, body_radius: float, bearings: np.ndarray,
+                      ir_range: float, arena_side: float, boxes: np.ndarray | None,
+                      kinds: Any, first: Any, geometry: Any, ranges: np.ndarray,
+                      is_robot: np.ndarray
+                      ) -> Pair:  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
     return _cast(poses, heading_trig(poses), body_radius, bearings, ir_range, arena_side,
                  boxes, kinds, first, geometry, ranges, is_robot, *_scratch(n, k))
 
 
 @numba.njit(cache=True)
-def _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
-                           is_robot):  # pragma: no cover - jitted
+def _bare_proximity_kernel(poses: np.ndarray, body_radius: float, bearings: np.ndarray,
+                           ir_range: float, arena_side: float, ranges: np.ndarray,
+                           is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # _proximity_kernel without obstacles: four arguments fewer to dispatch (about 0.1 us
     # each, 10 % of a 50-robot call), and None for them compiles _cast without its obstacle
     # tests (numba prunes the `is not None` branches of a None argument).
@@ -97,7 +108,7 @@ def _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, r
 
 
 @numba.njit(cache=True)
-def _scratch(n, k):  # pragma: no cover - jitted
+def _scratch(n: int, k: int) -> Scratch:  # pragma: no cover - jitted
     """The work arrays of :func:`_cast` for up to n robots and k beams (allocated once per
     call of a kernel, not once per arena)."""
     columns = _most_columns(n)
@@ -107,7 +118,7 @@ def _scratch(n, k):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _batch_scratch(bounds, k):  # pragma: no cover - jitted
+def _batch_scratch(bounds: np.ndarray, k: int) -> Scratch:  # pragma: no cover - jitted
     """:func:`_scratch` for the largest arena of a batch (arena e holds robots
     ``bounds[e]:bounds[e + 1]``), shared by all of them."""
     most = 0
@@ -122,9 +133,11 @@ _BEAM_ROWS = 7
 
 
 @numba.njit(cache=True)
-def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
-          geometry, ranges, is_robot, cell, start, members, beams,
-          exact):  # pragma: no cover - jitted
+def _cast(poses: np.ndarray, trig: np.ndarray, body_radius: float, bearings: np.ndarray,
+          ir_range: float, arena_side: float, boxes: np.ndarray | None, kinds: Any,
+          first: Any, geometry: Any, ranges: np.ndarray, is_robot: np.ndarray,
+          cell: np.ndarray, start: np.ndarray, members: np.ndarray, beams: np.ndarray,
+          exact: np.ndarray) -> Pair:  # pragma: no cover - jitted
     """One arena's IR ring into ranges and is_robot, in the given work arrays; the arena's
     obstacles are boxes, kinds, first (rows of the whole geometry array) as in
     :class:`~swarm_world.arena.ObstacleArrays`, or None for each (no obstacles: compiled
@@ -176,8 +189,8 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds
         col, row = _cell_of(x, width, columns), _cell_of(y, width, columns)
         for r in range(max(row - 1, 0), min(row + 2, columns)):
             for c in range(max(col - 1, 0), min(col + 2, columns)):
-                cell = r * columns + c
-                for m in range(start[cell], start[cell + 1]):
+                here = r * columns + c
+                for m in range(start[here], start[here + 1]):
                     j = members[m]
                     dx, dy = poses[j, 0] - x, poses[j, 1] - y
                     distance_sq = dx * dx + dy * dy
@@ -240,9 +253,12 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
 
 
 @numba.njit(cache=True)
-def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range, arena_side,
-                           boxes, kinds, first, geometry, obstacle_bounds, ranges,
-                           is_robot):  # pragma: no cover - jitted
+def _proximity_many_kernel(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
+                           body_radius: np.ndarray, bearings: np.ndarray,
+                           ir_range: np.ndarray, arena_side: np.ndarray, boxes: np.ndarray,
+                           kinds: np.ndarray, first: np.ndarray, geometry: np.ndarray,
+                           obstacle_bounds: np.ndarray, ranges: np.ndarray,
+                           is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other and their own
     # arena's obstacles, by the one-arena kernel on their own rows: the same arithmetic, so
     # the same readings, as alone.
@@ -257,8 +273,11 @@ def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
 
 
 @numba.njit(cache=True)
-def _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
-                                arena_side, ranges, is_robot):  # pragma: no cover - jitted
+def _bare_proximity_many_kernel(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
+                                body_radius: np.ndarray, bearings: np.ndarray,
+                                ir_range: np.ndarray, arena_side: np.ndarray,
+                                ranges: np.ndarray,
+                                is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # _proximity_many_kernel when no arena has obstacles: five arrays fewer to pass, and no
     # obstacle arrays to slice per arena.
     work = _batch_scratch(bounds, bearings.shape[1])

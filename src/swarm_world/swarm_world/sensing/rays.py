@@ -20,7 +20,8 @@ MARGIN = 1e-9
 
 
 @numba.njit(cache=True)
-def ray_walls(x, y, ux, uy, side):  # pragma: no cover - jitted
+def ray_walls(x: float, y: float, ux: float, uy: float,
+              side: float) -> float:  # pragma: no cover - jitted
     """The distance along the beam from (x, y) in direction (ux, uy) to the walls of the
     square [0, side]^2 (negative from beyond a wall; inf along a wall)."""
     tx = (side - x) / ux if ux > 0 else (-x / ux if ux < 0 else np.inf)
@@ -29,7 +30,8 @@ def ray_walls(x, y, ux, uy, side):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def ray_disc(x, y, ux, uy, cx, cy, radius):  # pragma: no cover - jitted
+def ray_disc(x: float, y: float, ux: float, uy: float, cx: float, cy: float,
+             radius: float) -> float:  # pragma: no cover - jitted
     """The distance along the beam from (x, y) in direction (ux, uy) to the disc of centre
     (cx, cy): 0 from inside it, inf if it misses (a tangent beam touches it, if rounding
     leaves it tangent)."""
@@ -45,7 +47,8 @@ def ray_disc(x, y, ux, uy, cx, cy, radius):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def ray_segment(x, y, ux, uy, ax, ay, bx, by):  # pragma: no cover - jitted
+def ray_segment(x: float, y: float, ux: float, uy: float, ax: float, ay: float, bx: float,
+                by: float) -> float:  # pragma: no cover - jitted
     """The distance along the beam from (x, y) in direction (ux, uy) to the segment from
     (ax, ay) to (bx, by), ends included; inf if it misses or runs parallel to it (a beam
     along an edge is seen by the edges at its ends)."""
@@ -62,16 +65,19 @@ def ray_segment(x, y, ux, uy, ax, ay, bx, by):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _near(boxes, m, x, y, reach):  # pragma: no cover - jitted
+def _near(boxes: np.ndarray, m: int, x: float, y: float,
+          reach: float) -> bool:  # pragma: no cover - jitted
     """Whether a beam of length ``reach`` from (x, y) may reach obstacle m's bounding box
     (widened by MARGIN: a skip test, it must never skip a hit)."""
     reach = reach + MARGIN
-    return (x + reach >= boxes[m, 0] and x - reach <= boxes[m, 2]
-            and y + reach >= boxes[m, 1] and y - reach <= boxes[m, 3])
+    near: bool = (x + reach >= boxes[m, 0] and x - reach <= boxes[m, 2]
+                  and y + reach >= boxes[m, 1] and y - reach <= boxes[m, 3])
+    return near
 
 
 @numba.njit(cache=True)
-def near_any(boxes, x, y, reach):  # pragma: no cover - jitted
+def near_any(boxes: np.ndarray, x: float, y: float,
+             reach: float) -> bool:  # pragma: no cover - jitted
     """Whether a beam of length ``reach`` from (x, y) may reach any obstacle's bounding box."""
     for m in range(boxes.shape[0]):
         if _near(boxes, m, x, y, reach):
@@ -80,8 +86,9 @@ def near_any(boxes, x, y, reach):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy,
-                    hit):  # pragma: no cover - jitted
+def cast_obstacles(x: float, y: float, reach: float, boxes: np.ndarray, kinds: np.ndarray,
+                   first: np.ndarray, geometry: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                   hit: np.ndarray) -> None:  # pragma: no cover - jitted
     """Lower each beam's hit (exact directions ux, uy) to the nearest obstacle within reach."""
     for m in range(boxes.shape[0]):
         if not _near(boxes, m, x, y, reach):
