@@ -1,7 +1,7 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
 #   make test   what CI runs (.ci/run, with CI=true): set up the venv, lint (ruff), type-check
-#               the pure cores (mypy), install the firmware's Debian tools and the browser
+#               every module but the ROS adapters, the pure cores strictly (mypy), install the firmware's Debian tools and the browser
 #               tests' tools if missing (make firmware-tools browser-tools), run every test on
 #               TEST_JOBS parallel workers (tests/README.md)
 # and one for the inner loop:
@@ -42,7 +42,8 @@ check: lint typecheck
 lint: venv
 	$(VENV)/bin/ruff check .
 
-# The pure cores' types (the files: pyproject.toml, [tool.mypy])
+# The types of every module but the ROS adapters, the pure cores strictly (folder rules:
+# pyproject.toml, [tool.mypy])
 typecheck: venv
 	$(VENV)/bin/mypy
 

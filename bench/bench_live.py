@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from mona_controller.contract import POSES
+from mona_controller.topics import POSES
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.media.live import LiveServer, LiveView

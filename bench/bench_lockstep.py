@@ -30,7 +30,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
 
-from mona_controller import qos
+from mona_controller.ros import qos
 from swarm_supervisor.system.processes import private_domain, ros_environment
 
 REPO = Path(__file__).resolve().parents[1]

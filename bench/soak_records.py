@@ -20,7 +20,8 @@ import time
 from pathlib import Path
 
 from swarm_metrics.bags.completeness import check_bag
-from swarm_metrics.bags.reader import BagError, read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
+from swarm_metrics.bags.scan import BagError
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode
 from swarm_supervisor.system.processes import busy_cores

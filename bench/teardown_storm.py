@@ -19,7 +19,7 @@ Variants (``--variants``, several per run, interleaved round by round):
 - ``entities-first``: every publisher, subscription, service and timer destroyed one by one,
   the executor shut down, then the node, then the context, same watchdog.
 - ``no-destroy``: flush stdout and stderr, ``os._exit(0)``: no DDS entity is destroyed.
-- ``repo``: ``mona_controller.shutdown.teardown(nodes, timeout, exit_status=0)`` as it is in
+- ``repo``: ``mona_controller.ros.shutdown.teardown(nodes, timeout, exit_status=0)`` as it is in
   the working tree (the fix under test).
 
 It prints one table row per variant: processes, exit statuses, how many hung (watchdog fired),
@@ -81,7 +81,7 @@ def make_controller(robot: int):
     from sensor_msgs.msg import Image, LaserScan
     from std_msgs.msg import Bool, String
 
-    from mona_controller import qos
+    from mona_controller.ros import qos
 
     node = Node('mona_controller', namespace=qos.robot_namespace(robot),
                 parameter_overrides=[Parameter('use_sim_time', value=True)])
@@ -123,7 +123,7 @@ def make_world(robots: int):
     from sensor_msgs.msg import Image, LaserScan
     from std_msgs.msg import Bool, String
 
-    from mona_controller import qos
+    from mona_controller.ros import qos
 
     node = Node(WORLD)
     quiet_pub, quiet_sub = qos.QUIET_PUBLISHER, qos.QUIET_SUBSCRIPTION
@@ -244,7 +244,7 @@ def worker(args: argparse.Namespace) -> int:
         sys.stderr.flush()
         os._exit(0)
     else:
-        from mona_controller import shutdown
+        from mona_controller.ros import shutdown
         if 'exit_status' in inspect.signature(shutdown.teardown).parameters:
             shutdown.teardown(nodes, args.timeout, exit_status=0)
         else:

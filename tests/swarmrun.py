@@ -141,7 +141,7 @@ class SwarmRun:
 WATCH_STATUS = """
 import rclpy
 from std_msgs.msg import String
-from mona_controller import qos
+from mona_controller.ros import qos
 rclpy.init()
 node = rclpy.create_node('status_watch')
 node.create_subscription(String, qos.STATUS, lambda msg: print(msg.data, flush=True),

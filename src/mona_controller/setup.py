@@ -20,7 +20,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'mona_controller_node = mona_controller.controller_node:main',
+            'mona_controller_node = mona_controller.ros.controller_node:main',
         ],
     },
 )

@@ -43,7 +43,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'supervisor_node = swarm_supervisor.system.supervisor_node:main',
+            'supervisor_node = swarm_supervisor.system.ros.supervisor_node:main',
             'mona-swarm = swarm_supervisor.cli:main',
         ],
     },

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from swarm_metrics.bags import completeness
-from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags import checks, completeness
+from swarm_metrics.bags.checks import Finding
 from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor import study
@@ -123,7 +123,7 @@ def test_analyze_refuses_an_incomplete_bag_and_allow_incomplete_records_why(bags
     findings = [Finding.from_dict(item) for item in written['completeness']]
     assert any(f.check == check and text in f.detail for f in findings), findings
     assert (tmp_path / 'accepted' / 'metrics.csv').exists()
-    failed = completeness.failed_checks(findings)
+    failed = checks.failed_checks(findings)
     if name == 'not_finished':
         assert failed == ['finished']  # nothing else is wrong with that bag
     if name == 'lost_cleaning_event':
@@ -208,84 +208,84 @@ def rows(*times: float) -> list[dict[str, float]]:
 
 
 def test_rows_from_zero_to_the_duration_pass():
-    assert completeness.check_rows(rows(*range(21)), 20.0, 1.0) == []
-    assert completeness.check_rows(rows(*range(22)), 20.5, 1.0) == []  # t = 21 > 20.5: extra
+    assert checks.check_rows(rows(*range(21)), 20.0, 1.0) == []
+    assert checks.check_rows(rows(*range(22)), 20.5, 1.0) == []  # t = 21 > 20.5: extra
     half = rows(*(k * 0.5 for k in range(9)))
-    assert completeness.check_rows(half, 4.0, 0.5) == []
+    assert checks.check_rows(half, 4.0, 0.5) == []
 
 
 def test_missing_first_seconds_name_the_first_missing_second_and_the_count():
-    [finding] = completeness.check_rows(rows(0, *range(16, 21)), 20.0, 1.0)
-    assert (finding.check, finding.where) == ('samples', completeness.RECOMPUTED)
+    [finding] = checks.check_rows(rows(0, *range(16, 21)), 20.0, 1.0)
+    assert (finding.check, finding.where) == ('samples', checks.RECOMPUTED)
     assert finding.detail == ('15 of 21 samples (every 1 s from t = 0 to 20 s) are missing, '
                               'the first at t = 1 s (missing t = 1-15 s)')
-    [finding] = completeness.check_rows(rows(*range(16, 21)), 20.0, 1.0)
+    [finding] = checks.check_rows(rows(*range(16, 21)), 20.0, 1.0)
     assert 'the first at t = 0 s (missing t = 0-15 s)' in finding.detail
 
 
 def test_gaps_and_an_early_end_are_found():
-    [finding] = completeness.check_rows(rows(0, 1, 3, 4, 7, 8), 10.0, 1.0)
+    [finding] = checks.check_rows(rows(0, 1, 3, 4, 7, 8), 10.0, 1.0)
     assert finding.detail.startswith('5 of 11 samples')
     assert 'missing t = 2, 5-6, 9-10 s' in finding.detail
     many = rows(*range(0, 21, 2))  # every other second: 10 gaps, 4 listed
-    assert completeness.check_rows(many, 20.0, 1.0)[0].detail.endswith(
+    assert checks.check_rows(many, 20.0, 1.0)[0].detail.endswith(
         'missing t = 1, 3, 5, 7, ... s)')
-    [finding] = completeness.check_rows(rows(0, 0.5, 1.5), 2.0, 0.5)
+    [finding] = checks.check_rows(rows(0, 0.5, 1.5), 2.0, 0.5)
     assert 'missing t = 1, 2 s' in finding.detail and '2 of 5 samples' in finding.detail
-    assert completeness.check_rows([], 2.0, 1.0)[0].detail.startswith('3 of 3')
+    assert checks.check_rows([], 2.0, 1.0)[0].detail.startswith('3 of 3')
 
 
 def test_online_samples_count_only_when_every_metric_has_them():
     sample = 10**9
     full = {name: [(5 + k * sample, 1.0) for k in range(4)] for name in metric_names()}
-    assert completeness.check_online(full, 5, 3.0, 1.0) == []
-    assert completeness.check_online({}, 5, 3.0, 1.0) == []  # none recorded: nothing to check
+    assert checks.check_online(full, 5, 3.0, 1.0) == []
+    assert checks.check_online({}, 5, 3.0, 1.0) == []  # none recorded: nothing to check
     full['coherency'] = full['coherency'][:2] + full['coherency'][3:]  # t = 2 lost
-    [finding] = completeness.check_online(full, 5, 3.0, 1.0)
-    assert finding.where == completeness.ONLINE
+    [finding] = checks.check_online(full, 5, 3.0, 1.0)
+    assert finding.where == checks.ONLINE
     assert '1 of 4 samples' in finding.detail and 'the first at t = 2 s' in finding.detail
     off_grid = {name: [(5 + k * sample + 1, 1.0) for k in range(4)]
                 for name in metric_names()}  # 1 ns late: not at a boundary
-    assert '4 of 4 samples' in completeness.check_online(off_grid, 5, 3.0, 1.0)[0].detail
+    assert '4 of 4 samples' in checks.check_online(off_grid, 5, 3.0, 1.0)[0].detail
 
 
 def test_finished_status_of_this_episode_is_required():
     running = (3 * 10**9, {'episode': 1, 'state': 'running'})
     finished = (4 * 10**9, {'episode': 1, 'state': 'finished'})
-    assert completeness.check_finished([running, finished], 1) == []
-    [finding] = completeness.check_finished([running], 1, start_ns=10**9)
+    assert checks.check_finished([running, finished], 1) == []
+    [finding] = checks.check_finished([running], 1, start_ns=10**9)
     assert finding.check == 'finished' and finding.where == '/world/status'
     assert "the last is 'running' at t = 2 s" in finding.detail
     assert 'none of the 2 recorded is for this episode' in \
-        completeness.check_finished([running, finished], 0)[0].detail
+        checks.check_finished([running, finished], 0)[0].detail
     failed = (5 * 10**9, {'episode': 1, 'state': 'failed', 'error': 'robot 3 silent'})
-    assert '(error: robot 3 silent)' in completeness.check_finished([running, failed], 1)[0].detail
+    assert '(error: robot 3 silent)' in checks.check_finished([running, failed], 1)[0].detail
 
 
 def test_cue_maps_must_match_exactly():
-    assert completeness.check_cue_maps(6, 0) == []
-    [finding] = completeness.check_cue_maps(6, 56, 2, 18.0, 'literal')
+    assert checks.check_cue_maps(6, 0) == []
+    [finding] = checks.check_cue_maps(6, 56, 2, 18.0, 'literal')
     assert (finding.check, finding.where) == ('cue_maps', '/world/cue_map')
     assert '2 of 6 recorded cue maps' in finding.detail and 'up to 56' in finding.detail
     assert 'the first at t = 18 s' in finding.detail
-    assert 'no cue map recorded' in completeness.check_cue_maps(0, 0)[0].detail
-    assert completeness.check_cue_maps(6, 56, cleaning='stochastic') == []  # not rebuildable
+    assert 'no cue map recorded' in checks.check_cue_maps(0, 0)[0].detail
+    assert checks.check_cue_maps(6, 56, cleaning='stochastic') == []  # not rebuildable
 
 
 def test_online_metrics_must_equal_the_recomputation():
-    assert completeness.check_online_metrics(None) == []
-    assert completeness.check_online_metrics(0.0) == []
-    [finding] = completeness.check_online_metrics(1e-12, ('coherency', 3.0))
+    assert checks.check_online_metrics(None) == []
+    assert checks.check_online_metrics(0.0) == []
+    [finding] = checks.check_online_metrics(1e-12, ('coherency', 3.0))
     assert finding.where == '/metrics/coherency' and 'up to 1e-12' in finding.detail
     assert 'the first at t = 3 s' in finding.detail
-    assert 'a NaN on one side only' in completeness.check_online_metrics(math.inf)[0].detail
+    assert 'a NaN on one side only' in checks.check_online_metrics(math.inf)[0].detail
 
 
 def test_findings_round_trip_and_are_ordered_by_check():
     findings = [Finding('cue_maps', 'a', 'x'), Finding('finished', 'b', 'y'),
                 Finding('cue_maps', 'c', 'z')]
     assert [Finding.from_dict(f.to_dict()) for f in findings] == findings
-    assert completeness.failed_checks(findings) == ['finished', 'cue_maps']
+    assert checks.failed_checks(findings) == ['finished', 'cue_maps']
     assert str(findings[1]) == 'finished (b): y'
     with pytest.raises(ValueError):
         Finding.from_dict({'check': 'samples'})
@@ -294,30 +294,30 @@ def test_findings_round_trip_and_are_ordered_by_check():
 def test_sources_must_be_where_the_announced_parameters_put_them():
     world = WorldParams(sources={'a': [1.0, 1.0, 0.3, 255.0]},
                         source_velocity={'a': [0.01, 0.0]})
-    where = completeness.announced_sources(world)
+    where = checks.announced_sources(world)
     recorded = [(at(t), where(t)) for t in (0.0, 10.0, 20.0)]
-    assert completeness.check_sources(recorded, where, START_NS) == []
+    assert checks.check_sources(recorded, where, START_NS) == []
     assert where(10.0)[0][1:] == pytest.approx((1.1, 1.0))  # it moves at 1 cm/s
     # A message of another time (a stale latched one) or a source that did not move.
     stale = [recorded[0], (at(10.0), where(0.0)), recorded[2]]
-    (finding,) = completeness.check_sources(stale, where, START_NS)
+    (finding,) = checks.check_sources(stale, where, START_NS)
     assert finding.check == 'sources' and '1 of 3' in finding.detail
     assert 'the first at t = 10 s' in finding.detail
-    assert completeness.check_sources([], where, START_NS)[0].detail.endswith('none recorded)')
+    assert checks.check_sources([], where, START_NS)[0].detail.endswith('none recorded)')
 
 
 def test_robot_states_need_one_known_code_per_robot():
     pose_times = [at(1.0), at(2.0)]
     good = [(at(t), [0, 2, 3]) for t in (0.0, 1.0, 2.0)]
-    assert completeness.check_states(good, pose_times, START_NS, 3, 4) == []
-    (short,) = completeness.check_states(good[:1] + [(at(1.0), [0, 2])] + good[2:],
+    assert checks.check_states(good, pose_times, START_NS, 3, 4) == []
+    (short,) = checks.check_states(good[:1] + [(at(1.0), [0, 2])] + good[2:],
                                          pose_times, START_NS, 3, 4)
     assert 'at t = 1 s are [0, 2]: expected 3 codes below 4' in short.detail
-    (unknown,) = completeness.check_states(good[:2] + [(at(2.0), [0, 9, 1])], pose_times,
+    (unknown,) = checks.check_states(good[:2] + [(at(2.0), [0, 9, 1])], pose_times,
                                            START_NS, 3, 4)
     assert '[0, 9, 1]' in unknown.detail
     # The kind's states say which codes are known: a kind with three has no code 3.
-    (beyond,) = completeness.check_states(good, pose_times, START_NS, 3, 3)
+    (beyond,) = checks.check_states(good, pose_times, START_NS, 3, 3)
     assert 'expected 3 codes below 3' in beyond.detail
-    (missing,) = completeness.check_states(good[1:], pose_times, START_NS, 3, 4)
+    (missing,) = checks.check_states(good[1:], pose_times, START_NS, 3, 4)
     assert 'the first at t = 0 s' in missing.detail

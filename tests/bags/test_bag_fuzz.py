@@ -12,8 +12,9 @@ import shutil
 import pytest
 
 from swarm_metrics.bags.analysis import recompute
-from swarm_metrics.bags.reader import BagError, TruncatedBagError, read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.bags.recover import recover_bag
+from swarm_metrics.bags.scan import BagError, TruncatedBagError
 from swarm_supervisor import cli
 from swarm_supervisor.cli.bags import checked_mcap
 from swarm_supervisor.config import load_config

@@ -18,8 +18,8 @@ from geometry_msgs.msg import PoseArray, TwistStamped
 from sensor_msgs.msg import Image
 from std_msgs.msg import Bool, Float64, String
 
-from mona_controller import qos
-from mona_controller.messages import fill_twist, ground_image
+from mona_controller.ros import qos
+from mona_controller.ros.messages import fill_twist, ground_image
 from swarm_metrics.bags.analysis import recompute
 from swarm_metrics.bags.reader import find_mcap, read_episode_bag
 from swarm_supervisor.config import load_config

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from swarm_metrics.bags.reader import TruncatedBagError, read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.bags.recover import recover_bag
+from swarm_metrics.bags.scan import TruncatedBagError
 from swarm_supervisor import cli
 
 CHUNK_PERIOD = 1.0  # s of log time per chunk: the most a SIGKILL may lose

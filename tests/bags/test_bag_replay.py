@@ -10,8 +10,8 @@ from geometry_msgs.msg import PoseArray
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
-from mona_controller import qos
-from swarm_metrics.bags.reader import McapScan
+from mona_controller.ros import qos
+from swarm_metrics.bags.scan import McapScan
 from swarm_supervisor.config import load_config
 
 from bagtools import embedded_episode_bag

@@ -9,7 +9,8 @@ from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
 from swarm_metrics.bags.analysis import recompute
-from swarm_metrics.bags.reader import BagError, find_mcap, read_episode_bag
+from swarm_metrics.bags.reader import find_mcap, read_episode_bag
+from swarm_metrics.bags.scan import BagError
 from swarm_metrics.bags.writer import EpisodeBagWriter
 from swarm_supervisor import cli
 from swarm_supervisor.config import load_config

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from swarm_metrics.bags import completeness
-from swarm_metrics.bags.completeness import Finding
+from swarm_metrics.bags.checks import Finding
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config
 from swarm_supervisor.outputs.bag import RecordError, record_episode
@@ -114,7 +114,8 @@ ALLOWED = {('swarm_supervisor/study/table.py', 'check_rows')}
 def test_no_module_judges_a_bag_with_checks_of_its_own():
     used = set()
     for path in SRC.rglob('*.py'):
-        if path.name in ('completeness.py', 'analysis.py'):
+        if path.relative_to(SRC).as_posix().endswith(
+                ('/bags/checks.py', '/bags/completeness.py', '/bags/analysis.py')):
             continue  # where the checks and the recomputation are
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Call):

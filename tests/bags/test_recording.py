@@ -11,11 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mona_controller.contract import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
+from mona_controller.topics import CLEANING, EPISODE, POSES, ROBOT_STATES, STATUS
 from swarm_metrics.bags.analysis import recompute
-from swarm_metrics.bags.completeness import check_bag, failed_checks
-from swarm_metrics.bags.reader import McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.checks import failed_checks
+from swarm_metrics.bags.completeness import check_bag
+from swarm_metrics.bags.reader import find_mcap, read_episode_bag
 from swarm_metrics.bags.recording import Recorder
+from swarm_metrics.bags.scan import McapScan
 from swarm_supervisor.config import load_config
 from swarm_world.messages.cdr import pose_array_cdr, states_from_cdr
 

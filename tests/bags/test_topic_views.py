@@ -13,11 +13,12 @@ import rclpy
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-from mona_controller import qos, topics
+from mona_controller import topics
+from mona_controller.ros import qos
 from mona_controller.topics import TOPICS
 from swarm_metrics.metrics import metric_names
 from swarm_metrics.ros.metrics_node import RECORDED, RECORDED_ALL, MetricsNode
-from swarm_supervisor.system.live_node import NODE_TOPICS, LiveNode
+from swarm_supervisor.system.ros.live_node import NODE_TOPICS, LiveNode
 
 pytestmark = pytest.mark.ros
 

@@ -11,8 +11,8 @@ from std_msgs.msg import Float64, String
 
 from mona_controller.contract import WorldState, WorldStatus
 from mona_controller.controllers.beeclust import STATES
-from mona_controller.messages import set_stamp
 from mona_controller.mona import MonaParams
+from mona_controller.ros.messages import set_stamp
 from swarm_supervisor.outputs.bag import status_json
 from swarm_world.arena import Arena, Disc, Polygon, Rect
 from swarm_world.field import CueField

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 from checks import Expected, plots_of
 
-from swarm_metrics.bags.reader import McapScan, cue_of, decode, find_mcap, poses_of
+from swarm_metrics.bags.reader import cue_of, decode, find_mcap, poses_of
+from swarm_metrics.bags.scan import McapScan
 from swarm_world.messages.cdr import states_from_cdr
 from swarm_world.messages.markers import sources_from_markers
 

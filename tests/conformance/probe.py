@@ -2,7 +2,7 @@
 controllers and records everything a world-side implementation publishes.
 
 Written against docs/interfaces.md with plain rclpy and the standard messages, not with the
-project's decoding helpers (mona_controller.messages, .contract, .qos), so that the suite
+project's decoding helpers (mona_controller.ros.messages, .ros.qos, .contract), so that the suite
 checks an implementation, and those helpers, independently.
 
 The scenario (``Scenario.run``), with robots 0-2 run by real controller nodes and robots 3

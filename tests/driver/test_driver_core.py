@@ -16,8 +16,8 @@ from swarm_world.driver.wheels import pwm_to_permille, to_permille, twist_to_whe
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots, placement_rng
+from swarm_world.sensing.ir import proximity
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import proximity
 from swarm_world.world import World
 
 #: The simulator's sensor model of the paper (the virtual ground sensors' at tracked poses).

@@ -17,11 +17,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import String
 
-from mona_controller import qos
 from mona_controller.contract import Announcement, WorldStatus
 from mona_controller.link.frame import Decoder, Frame
 from mona_controller.link.payloads import COMMAND, TELEMETRY, Command, Telemetry
-from swarm_world.driver.emulation import build_images
+from mona_controller.ros import qos
+from swarm_world.driver.firmware import build_images
 from swarm_world.ros.driver_node import TRACKER_QOS, DriverNode
 from swarm_world.ros.world_messages import PoseArrayFiller
 

@@ -17,7 +17,7 @@ import pytest
 
 from mona_controller.link.frame import Decoder, Frame
 from mona_controller.link.payloads import COMMAND, TELEMETRY, Command, Telemetry
-from swarm_world.driver.emulation import make
+from swarm_world.driver.firmware import make
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / 'firmware'

@@ -17,8 +17,8 @@ import time
 import pytest
 
 from mona_controller.controllers.beeclust import STATES
-from swarm_supervisor.system.live_node import NODE_TOPICS
 from swarm_supervisor.system.processes import LIVE_READY
+from swarm_supervisor.system.ros.live_node import NODE_TOPICS
 
 from foxclient import LEGACY_SUBPROTOCOL, Capture, connect_when_up
 from harness import free_port

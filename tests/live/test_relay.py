@@ -18,7 +18,7 @@ import time
 import pytest
 import websockets
 
-from mona_controller.contract import CLOCK, POSES
+from mona_controller.topics import CLOCK, POSES
 from swarm_supervisor.media.live import LiveServer
 from swarm_world.messages.cdr import clock_cdr, pose_array_cdr
 

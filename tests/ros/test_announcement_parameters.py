@@ -16,11 +16,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String
 
-from mona_controller import qos
 from mona_controller.contract import Announcement
-from mona_controller.controller_node import ControllerNode
-from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 from mona_controller.mona import MonaParams
+from mona_controller.ros import qos
+from mona_controller.ros.controller_node import ControllerNode
+from mona_controller.ros.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 
 pytestmark = pytest.mark.ros
 

@@ -13,13 +13,13 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String, UInt8
 
-from mona_controller import qos
 from mona_controller.contract import Announcement
-from mona_controller.controller_node import ControllerNode, parse_robots
 from mona_controller.controllers import ControllerParams, controller_class
 from mona_controller.controllers.beeclust import FOLLOW, WAIT
-from mona_controller.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 from mona_controller.mona import MonaParams
+from mona_controller.ros import qos
+from mona_controller.ros.controller_node import ControllerNode, parse_robots
+from mona_controller.ros.messages import fill_readings, ground_image, proximity_scan, stamp_to_ns
 from mona_controller.schema import ParameterError
 
 pytestmark = pytest.mark.ros

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 
-from mona_controller.controller_node import ControllerNode
+from mona_controller.ros.controller_node import ControllerNode
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
-from swarm_supervisor.system.supervisor_node import RUN_FILE, Supervisor
-from swarm_world.ros.world_node import FINAL_FILE, WorldNode
+from swarm_supervisor.system.ros.supervisor_node import RUN_FILE, Supervisor
+from swarm_world.hosting import FINAL_FILE
+from swarm_world.ros.world_node import WorldNode
 
 pytestmark = pytest.mark.ros
 

@@ -1,4 +1,4 @@
-"""The message conversions of mona_controller.messages and swarm_world.ros.world_messages
+"""The message conversions of mona_controller.ros.messages and swarm_world.ros.world_messages
 (message types only, no DDS)."""
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from mona_controller.controllers.beeclust import STATES
-from mona_controller.messages import (
+from mona_controller.mona import MonaParams
+from mona_controller.ros.messages import (
     fill_readings,
     ground_from_image,
     ground_image,
@@ -19,7 +20,6 @@ from mona_controller.messages import (
     proximity_scan,
     stamp_to_ns,
 )
-from mona_controller.mona import MonaParams
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots, placement_rng
 from swarm_world.ros.world_messages import (

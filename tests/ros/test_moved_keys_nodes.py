@@ -8,8 +8,8 @@ from __future__ import annotations
 import pytest
 from rclpy.parameter import Parameter
 
-from mona_controller.controller_node import ControllerNode
 from mona_controller.mona import MonaParams
+from mona_controller.ros.controller_node import ControllerNode
 from mona_controller.schema import ParameterError
 from swarm_world.ros.world_node import WorldNode
 

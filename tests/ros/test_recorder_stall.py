@@ -15,14 +15,14 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
 from mona_controller.contract import WorldState
-from mona_controller.controller_node import ControllerNode
+from mona_controller.ros.controller_node import ControllerNode
 from swarm_metrics.bags.analysis import recompute
 from swarm_metrics.bags.completeness import check_bag_file
 from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.ros.metrics_node import MetricsNode
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
-from swarm_supervisor.system.supervisor_node import Supervisor
+from swarm_supervisor.system.ros.supervisor_node import Supervisor
 from swarm_world.ros.world_node import WorldNode
 
 pytestmark = pytest.mark.ros

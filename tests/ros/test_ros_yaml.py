@@ -14,7 +14,7 @@ import yaml
 from rclpy.context import Context
 from rclpy.node import Node
 
-from mona_controller.ros_params import _plain
+from mona_controller.ros.ros_params import _plain
 from mona_controller.schema import ParameterError
 from swarm_supervisor.system.ros_yaml import check_ros_file, check_ros_override
 

@@ -14,13 +14,13 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import Image, LaserScan
 
 from mona_controller.controllers import ControllerParams, SwarmController
-from mona_controller.messages import (
+from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.ros.messages import (
     ReadingError,
     fill_twist,
     ground_from_image,
     proximity_from_scan,
 )
-from mona_controller.mona import MonaParams, wheels_to_twist
 
 MONA = MonaParams()
 K = MONA.ir_count

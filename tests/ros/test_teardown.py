@@ -25,7 +25,7 @@ TIMEOUT = 1.5
 PROBE = """
 import ctypes, os, sys, threading, time
 import rclpy
-from mona_controller.shutdown import teardown
+from mona_controller.ros.shutdown import teardown
 
 mode, status, timeout = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 rclpy.init()
@@ -100,7 +100,7 @@ def test_deliver_waits_until_a_reader_has_the_last_message(executor, processes):
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from std_msgs.msg import String
 
-    from mona_controller.shutdown import deliver
+    from mona_controller.ros.shutdown import deliver
 
     reader = processes.spawn([sys.executable, '-c', READER], 'reader')
     node = rclpy_node(executor)

@@ -15,10 +15,11 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String
 
-from mona_controller import qos
-from mona_controller.messages import fill_twist, stamp_to_ns
+from mona_controller.ros import qos
+from mona_controller.ros.messages import fill_twist, stamp_to_ns
+from swarm_world.hosting import FINAL_FILE
 from swarm_world.ros.world_messages import poses_from_pose_array
-from swarm_world.ros.world_node import FINAL_FILE, WorldNode
+from swarm_world.ros.world_node import WorldNode
 from swarm_world.world import World
 
 pytestmark = pytest.mark.ros

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swarm_metrics.bags.reader import TruncatedBagError, read_episode_bag
+from swarm_metrics.bags.reader import read_episode_bag
+from swarm_metrics.bags.scan import TruncatedBagError
 
 from swarmrun import CONFIG, group_alive
 

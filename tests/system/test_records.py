@@ -13,7 +13,8 @@ import time
 import pytest
 
 from swarm_metrics.bags.analysis import recompute
-from swarm_metrics.bags.completeness import check_bag_file, failed_checks
+from swarm_metrics.bags.checks import failed_checks
+from swarm_metrics.bags.completeness import check_bag_file
 from swarm_metrics.bags.reader import read_episode_bag
 from swarm_supervisor.config import load_config
 from swarm_supervisor.engine.runner import run_episode

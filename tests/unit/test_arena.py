@@ -19,8 +19,8 @@ from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.field import CueField, initial_cue
 from swarm_world.params import WorldParams
 from swarm_world.reference import check_ir, check_placement
+from swarm_world.sensing.ir import proximity
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import proximity
 
 #: A few of each kind in the paper's arena, none over the paper's source at the centre.
 LAYOUT = {'pillar': ['disc', 0.9, 2.0, 0.15],

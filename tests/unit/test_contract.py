@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from mona_controller import contract
+from mona_controller import contract, topics
 from mona_controller.contract import (
     ContractError,
     RecorderBook,
@@ -60,10 +60,18 @@ def test_book_follows_each_recorder_per_episode():
 
 
 def test_topic_names_are_absolute_or_per_robot():
-    assert contract.robot_topic(12, contract.CMD_VEL) == '/mona_12/cmd_vel'
+    assert topics.robot_topic(12, topics.CMD_VEL) == '/mona_12/cmd_vel'
     assert contract.base_frame(0) == 'mona_0/base_link'
-    assert all(name.startswith('/') for name in (contract.POSES, contract.RECORDERS,
-                                                 contract.EPISODE, contract.STATUS))
+    assert all(name.startswith('/') for name in (topics.POSES, topics.RECORDERS,
+                                                 topics.EPISODE, topics.STATUS))
+
+
+def test_the_topic_names_the_contract_reexported_forward_for_one_release():
+    with pytest.warns(DeprecationWarning, match='mona_controller.contract.POSES moved to '
+                                                'mona_controller.topics.POSES'):
+        assert contract.POSES == topics.POSES
+    with pytest.raises(AttributeError):
+        contract.NO_SUCH_TOPIC  # noqa: B018
 
 
 def test_announcement_round_trips_and_says_what_is_wrong():

@@ -27,8 +27,9 @@ from mona_controller.controllers import (
     states_for,
     states_of,
 )
+from mona_controller.mappings import from_mapping, to_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import ParameterError, from_mapping, param, to_mapping, validate
+from mona_controller.schema import ParameterError, param, validate
 
 KINDS = sorted(CONTROLLERS)
 K = MonaParams().ir_count

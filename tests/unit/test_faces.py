@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SRC = Path(__file__).resolve().parents[2] / 'src'
 PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor')
 #: What a face must not import by itself: the compiled, graphical and ROS libraries.
@@ -56,3 +58,26 @@ def test_a_face_imports_nothing_behind_it_and_every_name_resolves():
               and not name.endswith('.exports')]
     assert behind == [], behind
     assert found['missing'] == [] and found['unsorted'] == [], found
+
+
+def test_the_old_names_of_the_moved_adapters_forward_for_one_release():
+    from mona_controller.ros import qos
+    from swarm_supervisor.system.ros import supervisor_node
+    with pytest.warns(DeprecationWarning, match='mona_controller.qos.POSES_QOS moved to '
+                                                'mona_controller.ros.qos.POSES_QOS'):
+        from mona_controller.qos import POSES_QOS
+    assert POSES_QOS is qos.POSES_QOS
+    with pytest.warns(DeprecationWarning, match='system.ros.supervisor_node.Supervisor'):
+        from swarm_supervisor.system.supervisor_node import Supervisor
+    assert Supervisor is supervisor_node.Supervisor
+
+
+def test_the_names_that_left_the_schema_forward_for_one_release():
+    from mona_controller import mappings, schema
+    with pytest.warns(DeprecationWarning, match='mona_controller.schema.from_mapping moved to '
+                                                'mona_controller.mappings.from_mapping'):
+        from mona_controller.schema import from_mapping
+    assert from_mapping is mappings.from_mapping
+    with pytest.raises(AttributeError):
+        schema.no_such_name  # noqa: B018
+

@@ -9,8 +9,8 @@ import pytest
 from mona_controller.mona import MonaParams
 from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config, write_ros_yaml
+from swarm_world.sensing.ground import ground_readings
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import ground_readings
 from swarm_world.sensing.transfer import transfer_table, webots_reading
 
 

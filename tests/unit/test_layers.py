@@ -8,10 +8,12 @@
 - No import cycle anywhere in src, counting every import (also those inside functions and
   those under ``if TYPE_CHECKING:``, for annotations only: two modules that name each other
   even there cannot be read apart).
-- The pure cores import no ROS: only the adapters and the CLI above them import rclpy or a
-  message package, and no pure module imports an adapter. In the packages of
-  :data:`ROS_FOLDERS` the adapters are exactly the modules of their ``ros`` folders; elsewhere
-  they are listed in :data:`ADAPTERS`.
+- The pure cores import no ROS, by a folder rule: a ROS adapter is a module under a ``ros``
+  folder (``mona_controller.ros``, ``swarm_world.ros``, ``swarm_metrics.ros``,
+  ``swarm_supervisor.system.ros``), and only those import ROS (:func:`is_ros`: rclpy, the
+  message and interface packages, rosidl, launch). No other module imports ROS or an adapter;
+  the CLI above every layer imports the adapters only inside its functions, where the command
+  needs them.
 - No module uses another module's private name (``from x import _y``, ``x._y``).
 """
 
@@ -30,22 +32,19 @@ PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor
 SUPERVISOR_LAYERS = (('yaml_text',), ('config', 'exits', 'exports'), ('engine',), ('outputs',),
                      ('media',), ('envs', 'study'), ('analysis', 'system'),
                      ('calibration', 'evolution'), ('cli',))
-#: Packages whose ROS adapters are exactly their ``ros`` sub-packages (a folder rule).
-ROS_FOLDERS = ('swarm_world', 'swarm_metrics')
-#: The other ROS adapters: the modules that may import rclpy and the message packages.
-ADAPTERS = {
-    'mona_controller.controller_node', 'mona_controller.messages', 'mona_controller.qos',
-    'mona_controller.ros_params', 'mona_controller.shutdown',
-    'swarm_supervisor.system.supervisor_node', 'swarm_supervisor.system.live_node',
-    'swarm_supervisor.system.replay',
-}
 #: The link to real robots (docs/link.md): pure, shared by a driver and its tests, so it
 #: imports nothing of ours outside itself (the frame codec runs where no model does).
 LINK = {'mona_controller.link', 'mona_controller.link.crc', 'mona_controller.link.frame',
         'mona_controller.link.payloads', 'mona_controller.link.sequence',
         'mona_controller.link.transport'}
-#: Top-level modules of ROS itself (and the message packages, by their suffix).
-ROS = {'rclpy', 'rosidl_runtime_py', 'rosidl_parser', 'builtin_interfaces', 'rosgraph_msgs'}
+#: Top-level modules of ROS itself: the client library and what stands beside it in a ROS
+#: installation (the rest by their prefix or suffix, :func:`is_ros`).
+ROS = {'rclpy', 'rcl', 'rmw', 'rpyutils', 'launch', 'launch_ros', 'ament_index_python',
+       'rosbag2_py', 'message_filters', 'builtin_interfaces'}
+#: Prefixes and suffixes of the generated message packages and ROS libraries (std_msgs,
+#: rcl_interfaces, std_srvs, rosidl_runtime_py, tf2_ros, ...).
+ROS_PREFIXES = ('rosidl_', 'rcl_', 'rmw_', 'tf2')
+ROS_SUFFIXES = ('_msgs', '_srvs', '_interfaces')
 
 
 def module_files() -> dict[str, Path]:
@@ -115,8 +114,9 @@ def edges(annotations: bool = False) -> dict[str, set[str]]:
 
 
 def is_ros(module: str) -> bool:
+    """Whether ``module`` (an imported name) is part of ROS: it needs a ROS installation."""
     top = module.split('.')[0]
-    return top in ROS or top.endswith('_msgs')
+    return top in ROS or top.startswith(ROS_PREFIXES) or top.endswith(ROS_SUFFIXES)
 
 
 def supervisor_layer(module: str) -> tuple[int, str]:
@@ -130,19 +130,31 @@ def supervisor_layer(module: str) -> tuple[int, str]:
 
 
 def adapter(module: str) -> bool:
-    """Whether ``module`` is a ROS adapter (see the module docstring)."""
-    parts = module.split('.')
-    return module in ADAPTERS or (parts[0] in ROS_FOLDERS and 'ros' in parts[1:])
+    """Whether ``module`` is a ROS adapter: it lies in a ``ros`` folder of its package."""
+    return 'ros' in module.split('.')[1:]
 
 
 def pure(module: str) -> bool:
     return not adapter(module) and not module.startswith('swarm_supervisor.cli')
 
 
-def test_every_adapter_exists():
-    assert ADAPTERS <= set(MODULES), ADAPTERS - set(MODULES)
-    listed = {name for name in ADAPTERS if name.split('.')[0] in ROS_FOLDERS}
-    assert not listed, f'{listed}: a package of ROS_FOLDERS keeps its adapters in ros/'
+def test_every_package_keeps_its_adapters_in_a_ros_folder():
+    folders = {name for name in MODULES if name.split('.')[-1] == 'ros'}
+    assert folders == {'mona_controller.ros', 'swarm_world.ros', 'swarm_metrics.ros',
+                       'swarm_supervisor.system.ros'}, folders
+    # Each holds adapters indeed: every module of a ros folder but its face imports ROS.
+    idle = [name for name in MODULES if adapter(name) and name not in folders
+            and not any(is_ros(imported) for imported, _ in imports(name))
+            and not any(adapter(target) for target in edges()[name])]
+    assert not idle, f'modules of a ros folder that import no ROS: {idle}'
+
+
+def test_the_ros_rule_knows_the_ros_packages():
+    assert all(map(is_ros, ('rclpy.node', 'std_msgs.msg', 'geometry_msgs', 'rosgraph_msgs',
+                            'builtin_interfaces.msg', 'rcl_interfaces.msg', 'std_srvs.srv',
+                            'rosidl_runtime_py', 'launch_ros.actions', 'tf2_ros')))
+    assert not any(map(is_ros, ('rosbags.typesys', 'mcap_ros2.decoder', 'numpy', 'json',
+                                'swarm_world.ros', 'mona_controller.messages')))
 
 
 def test_the_link_is_pure_and_self_contained():
@@ -220,14 +232,33 @@ def test_the_cycle_finder_finds_a_cycle():
         ['a', 'b', 'c']]
 
 
-def test_pure_cores_import_no_ros():
+def test_only_ros_folders_import_ros():
+    """Every import, also one inside a function: a module outside a ros folder imports
+    neither ROS nor an adapter; only the CLI, above every layer, imports an adapter (inside
+    the function of the command that needs it, so the CLI starts without ROS)."""
     wrong = []
     for name in MODULES:
-        if not pure(name):
+        if adapter(name):
             continue
-        for imported, line in imports(name):
-            if is_ros(imported) or adapter(ours(imported) or ''):
+        cli = name.startswith('swarm_supervisor.cli')
+        for imported, line in imports(name, annotations=True):
+            if is_ros(imported) or (adapter(ours(imported) or '') and not cli):
                 wrong.append(f'{MODULES[name].relative_to(SRC)}:{line} imports {imported}')
+    assert not wrong, wrong
+
+
+def test_the_cli_imports_adapters_only_inside_functions():
+    wrong = []
+    for name in MODULES:
+        if not name.startswith('swarm_supervisor.cli'):
+            continue
+        tree = ast.parse(MODULES[name].read_text())
+        for node in tree.body:
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = ([alias.name for alias in node.names] if isinstance(node, ast.Import)
+                         else [node.module or ''])
+                wrong += [f'{name}:{node.lineno} imports {module}' for module in names
+                          if adapter(ours(module) or '')]
     assert not wrong, wrong
 
 

@@ -27,7 +27,7 @@ import pytest
 
 from swarm_metrics import metrics
 from swarm_metrics import plugins as metrics_errors
-from swarm_metrics.bags import completeness
+from swarm_metrics.bags import checks, completeness
 from swarm_metrics.bags.reader import read_episode_bag
 from swarm_metrics.metrics import METRICS, Metric, register, unregister
 
@@ -209,7 +209,7 @@ def test_an_added_metric_is_in_metrics_csv_the_bag_analyze_and_the_checks(
     assert findings == [] and [row[NAME] for row in result.rows] == values
     assert result.online_max_diff == 0.0
     lost = dict(bag.metrics, **{NAME: bag.metrics[NAME][:4] + bag.metrics[NAME][6:]})
-    [finding] = completeness.check_online(lost, result.setup.start_ns, 12.0, 1.0)
+    [finding] = checks.check_online(lost, result.setup.start_ns, 12.0, 1.0)
     assert finding.check == 'samples' and 'missing t = 4-5 s' in finding.detail
     bag.metrics[NAME] = [(t, v + 0.5 if k == 3 else v)
                          for k, (t, v) in enumerate(bag.metrics[NAME])]

@@ -10,8 +10,9 @@ import dataclasses
 import pytest
 import yaml
 
+from mona_controller.mappings import from_mapping
 from mona_controller.mona import SENSOR_MODEL, MonaParams
-from mona_controller.schema import DeprecatedKeyWarning, ParameterError, from_mapping
+from mona_controller.schema import DeprecatedKeyWarning, ParameterError
 from swarm_metrics.bags.analysis import EpisodeSetup
 from swarm_supervisor.calibration.design import load_design
 from swarm_supervisor.config import SwarmConfig, load_config

@@ -19,7 +19,7 @@ NODES = {'world_node': [str(BIN / 'world_node')],
          'metrics_node': [str(BIN / 'metrics_node')],
          'supervisor_node': [str(BIN / 'supervisor_node')],
          'mona_controller_node': [str(BIN / 'mona_controller_node')],
-         'live_node': [sys.executable, '-m', 'swarm_supervisor.system.live_node']}
+         'live_node': [sys.executable, '-m', 'swarm_supervisor.system.ros.live_node']}
 
 
 @pytest.mark.parametrize('name', list(NODES))

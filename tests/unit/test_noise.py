@@ -11,8 +11,8 @@ from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import run_episode
 from swarm_world.params import WorldParams
 from swarm_world.sensing import noise
+from swarm_world.sensing.ground import ground_readings
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import ground_readings
 from swarm_world.world import World
 
 

@@ -4,8 +4,8 @@ the keys that differ (a driver's file that leaves keys at their defaults is the 
 from __future__ import annotations
 
 from mona_controller.controllers import ControllerParams
+from mona_controller.mappings import differences, flat_fields, to_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import differences, flat_fields, to_mapping
 
 
 def test_a_section_that_leaves_keys_at_their_defaults_does_not_differ():

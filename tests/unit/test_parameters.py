@@ -3,7 +3,8 @@
 import pytest
 
 from mona_controller.controllers import ControllerParams, SwarmController
-from mona_controller.schema import ParameterError, flat_fields, from_mapping
+from mona_controller.mappings import flat_fields, from_mapping
+from mona_controller.schema import ParameterError
 from swarm_supervisor.config import DEFAULT_CONFIG, SwarmConfig, load_config, write_ros_yaml
 
 

@@ -13,7 +13,8 @@ import pytest
 
 from mona_controller.controllers import ControllerParams
 from mona_controller.keys import leaf
-from mona_controller.schema import DeprecatedKeyWarning, ParameterError, from_mapping
+from mona_controller.mappings import from_mapping
+from mona_controller.schema import DeprecatedKeyWarning, ParameterError
 from swarm_supervisor.config import SwarmConfig, current_keys, load_config
 from swarm_supervisor.study import specs
 

@@ -10,8 +10,10 @@ from swarm_world.arena import Arena, Disc, Polygon, Rect, pack
 from swarm_world.params import WorldParams
 from swarm_world.placement import place_robots
 from swarm_world.reference import check_ir, first_difference, marched_ir
+from swarm_world.sensing.ground import ground_readings
+from swarm_world.sensing.headings import heading_trig
+from swarm_world.sensing.ir import proximity, proximity_many
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import ground_readings, heading_trig, proximity, proximity_many
 from swarm_world.world import World
 
 BEARINGS = MonaParams().ir_bearings()

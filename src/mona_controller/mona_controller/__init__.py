@@ -1,5 +1,6 @@
 """The Mona controller: a pure core (the parameter schema, the Mona, the controller kinds, the
-topic contract, the link to a real robot) and its ROS node."""
+topic contract, the link to a real robot) and its ROS adapters (``ros``: the controller node
+and what every node shares)."""
 
 from mona_controller.exports import moved_modules
 
@@ -9,4 +10,6 @@ moved_modules(__name__, {
     'network': ['controllers.network', 'controllers.network_weights',
                 'controllers.network_forward'],
     'reference': ['controllers.reference'],
+    **{name: [f'ros.{name}'] for name in ('controller_node', 'messages', 'qos', 'ros_params',
+                                          'shutdown')},
 })

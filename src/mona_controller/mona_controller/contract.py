@@ -1,9 +1,10 @@
-"""The topic contract as plain Python: names, world states and the recorder protocol.
+"""The topic contract as plain Python: the frames, world states, the episode announcement and
+the recorder protocol.
 
 ROS-free, so that bag tools, analysis and tests use the very names and records the nodes use.
 The topics themselves (name, type, QoS, publisher, what a bag records) are one table,
-:data:`mona_controller.topics.TOPICS`, re-exported here; :mod:`mona_controller.qos` builds
-the rclpy profiles from it. The page that explains it is docs/interfaces.md.
+:data:`mona_controller.topics.TOPICS`, with the topic names; :mod:`mona_controller.ros.qos`
+builds the rclpy profiles from it. The page that explains it is docs/interfaces.md.
 """
 
 from __future__ import annotations
@@ -12,39 +13,15 @@ import dataclasses
 import enum
 import json
 import math
+import warnings
 from collections.abc import Iterable
+from typing import Any, cast
 
-from mona_controller.controllers.base import State, states_for
+from mona_controller import topics
+from mona_controller.controllers.base import Colour, State, states_for
 
-# The topic names and the table they belong to (re-exported: one import for the contract).
-from mona_controller.topics import (  # noqa: F401
-    CLEANER,
-    CLEANING,
-    CLOCK,
-    CMD_VEL,
-    CUE_GRID,
-    CUE_MAP,
-    EPISODE,
-    GROUND,
-    MARKERS,
-    METRICS_PREFIX,
-    OBSTACLES,
-    POSES,
-    PROXIMITY,
-    RECORDERS,
-    ROBOT_STATES,
-    SOURCES,
-    STATE,
-    STATUS,
-    TOPICS,
-    QoS,
-    Topic,
-    metric_topic,
-    robot_namespace,
-    robot_topic,
-    topic_of,
-)
-
+#: Robot poses as an announcement carries them: (x m, y m, yaw rad) per robot.
+Poses = tuple[tuple[float, float, float], ...]
 #: The world frame (REP 103: origin at an arena corner, x and y along the walls).
 WORLD_FRAME = 'world'
 
@@ -108,7 +85,7 @@ class WorldStatus:
         return json.dumps(document)
 
     @classmethod
-    def from_dict(cls, document: dict) -> WorldStatus:
+    def from_dict(cls, document: dict[str, Any]) -> WorldStatus:
         """Parse a decoded status.
 
         Raises:
@@ -218,12 +195,12 @@ class Announcement:
     population: int = 0
     duration: float = 0.0  #: s of sim time
     start_ns: int = 0  #: sim time of the episode's t = 0
-    poses: tuple[tuple[float, float, float], ...] = ()  #: [x, y, yaw] per robot, world frame
-    parameters: dict = dataclasses.field(default_factory=dict)  #: every section
+    poses: Poses = ()  #: [x, y, yaw] per robot, world frame
+    parameters: dict[str, Any] = dataclasses.field(default_factory=dict)  #: every section
     states: tuple[State, ...] = ()  #: the kind's states, by code
     #: The plug-ins the run loaded (:meth:`mona_controller.plugins.Plugin.to_dict` records):
     #: what an analysis must load to recompute it. Left out of the message when empty.
-    plugins: tuple[dict, ...] = ()
+    plugins: tuple[dict[str, Any], ...] = ()
 
     @property
     def key(self) -> tuple[int, int, int]:
@@ -245,7 +222,7 @@ class Announcement:
         return json.dumps(document)
 
     @classmethod
-    def from_dict(cls, document: dict) -> Announcement:
+    def from_dict(cls, document: dict[str, Any]) -> Announcement:
         """Parse a decoded announcement.
 
         Raises:
@@ -269,8 +246,9 @@ class Announcement:
                                duration=float(document['duration']),
                                start_ns=int(document['start_ns']), poses=poses,
                                parameters=parameters, plugins=tuple(plugins),
-                               states=tuple(State(str(state['name']),
-                                                  tuple(float(c) for c in state['colour']))
+                               states=tuple(State(str(state['name']), cast(
+                                                  Colour, tuple(float(c) for c in
+                                                                state['colour'])))
                                             for state in document.get('states', ())))
         except KeyError as error:
             raise ContractError(f'the episode announcement has no {error.args[0]!r}') from None
@@ -361,3 +339,14 @@ class RecorderBook:
         reports = {name: self._of(name, episode, start_ns) for name in self.names}
         return {name: report for name, report in reports.items()
                 if report is not None and report.state is RecorderState.CLOSED}
+
+
+def __getattr__(name: str) -> Any:
+    """A name of the topic table (:mod:`mona_controller.topics`), which this module
+    re-exported until this release: still found here for one release, with a
+    DeprecationWarning."""
+    if name.startswith('_') or not hasattr(topics, name):
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    warnings.warn(f'{__name__}.{name} moved to mona_controller.topics.{name}',
+                  DeprecationWarning, stacklevel=2)
+    return getattr(topics, name)

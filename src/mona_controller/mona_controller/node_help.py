@@ -11,7 +11,7 @@ import argparse
 import textwrap
 from collections.abc import Mapping, Sequence
 
-from mona_controller.schema import flat_fields
+from mona_controller.mappings import flat_fields
 
 #: What every node's exit status means; a node adds its own (metrics: 3, the world was lost).
 STATUSES = {0: 'success (the run finished, or stopped by SIGINT / SIGTERM)',

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 #: Unmatched halves kept per topic while the other half of the pair is on its way.
 PENDING_LIMIT = 16
@@ -65,7 +65,8 @@ class ReadingPairs(Generic[Ground, Proximity, Answer]):
         """Take the proximity half of the readings stamped ``stamp``."""
         return self._add(self.proximity, stamp, reading)
 
-    def _add(self, halves: dict, stamp: int, reading: object) -> list[tuple[int, Answer]]:
+    def _add(self, halves: dict[int, Any], stamp: int,
+             reading: object) -> list[tuple[int, Answer]]:
         if not self._answerable(stamp):
             return []
         halves[stamp] = reading

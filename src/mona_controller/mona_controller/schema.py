@@ -2,31 +2,26 @@
 
 A parameter section is a frozen dataclass whose fields are made with :func:`param`. Building
 one validates every field (type and range) and names the offending key in the error, so a bad
-value fails at start-up in either runner. :func:`from_mapping` builds a section from a (nested)
-mapping and rejects unknown keys; :func:`flat_fields` lists the fields as dotted ROS parameter
-names for the nodes to declare (:mod:`mona_controller.keys` finds one by its dotted key).
+value fails at start-up in either runner. :mod:`mona_controller.mappings` builds a section
+from a (nested) mapping, rejecting unknown keys, and lists its fields as dotted ROS parameter
+names for the nodes to declare; :mod:`mona_controller.keys` finds one by its dotted key.
 
 A section holds other sections as fields (``SwarmConfig.world``), or as a :func:`sections`
 field whose names are known only when it is built (one per registered controller kind:
 ``controller.beeclust.alpha``). A section may list keys it renamed in a ``RENAMED`` class
-attribute (old name -> new dotted path below it): an old key still works, with a
-:class:`DeprecatedKeyWarning` naming the new one.
-
-A key may also move to another section: the section it left lists it in ``MOVED`` (its name
--> the new dotted key), the section it joined in ``FORMERLY`` (its name -> the old dotted key).
-The old key still works for one release: :func:`moved_keys` lists them, :func:`relocate`
-moves them in a mapping of sections, with a :class:`DeprecatedKeyWarning` naming the new key.
+attribute (old name -> new dotted path below it), and a key may move to another section
+(``MOVED``, ``FORMERLY``): the old key still works, with a :class:`DeprecatedKeyWarning`
+naming the new one (:mod:`mona_controller.keys`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 import warnings
-from collections.abc import Callable, Iterator, Mapping
-from typing import Any, TypeVar
-
-T = TypeVar('T')
+from collections.abc import Callable, Mapping
+from typing import Any
 
 SCALAR_TYPES = (bool, int, float, str)
 
@@ -93,7 +88,7 @@ def sections(lookup: Callable[[], Mapping[str, type]], *, doc: str) -> Any:
     return dataclasses.field(default=(), metadata={'sections': lookup, 'doc': doc})
 
 
-def spec_of(field: dataclasses.Field) -> Spec | None:
+def spec_of(field: dataclasses.Field[Any]) -> Spec | None:
     """The :class:`Spec` of a field made with :func:`param` (None for a nested section)."""
     return field.metadata.get('spec')
 
@@ -103,7 +98,7 @@ def spec_of(field: dataclasses.Field) -> Spec | None:
 NOT_A_PARAMETER = {'parameter': False}
 
 
-def parameter_fields(section: Any) -> tuple[dataclasses.Field, ...]:
+def parameter_fields(section: Any) -> tuple[dataclasses.Field[Any], ...]:
     """The fields of a section (class or instance) that are parameters or sections."""
     return tuple(field for field in dataclasses.fields(section)
                  if field.metadata.get('parameter', True))
@@ -219,215 +214,29 @@ def validate(section: Any, prefix: str = '') -> None:
         object.__setattr__(section, field.name, value)
 
 
-def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None, prefix: str = '') -> T:
-    """Build section ``cls`` from a nested mapping; missing keys take their defaults. A key
-    the section renamed (``RENAMED``) is moved to its new place, with a
-    :class:`DeprecatedKeyWarning`.
+def section_mapping(value: Any, name: str) -> Mapping[str, Any]:
+    """``value``, a section of a parameter mapping: a mapping, else refused.
 
     Raises:
-        ParameterError: for an unknown key (listing the known ones), a bad value, or a key
-            given under both its old and its new name.
+        ParameterError: naming the section ``name``.
     """
-    mapping = dict(mapping or {})
-    moved = moved_keys(cls) if not prefix else {}
-    if moved:  # a whole parameter file: keys that moved go to their new sections
-        mapping = relocate(mapping, moved)
-    mapping = _renamed(cls, mapping, prefix)
-    known = {f.name: f for f in parameter_fields(cls) if 'sections' not in f.metadata}
-    named = named_sections(cls)
-    unknown = sorted(set(mapping) - set(known) - set(named))
-    if unknown:
-        new = getattr(cls, 'MOVED', {}).get(unknown[0])
-        if new:
-            raise ParameterError(f'{prefix}{unknown[0]} moved to {new}: give it there')
-        raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known in '
-                             f'{prefix or "the top level"}: '
-                             f'{", ".join(sorted({*known, *named}))}')
-    values: dict[str, Any] = {}
-    for name, value in mapping.items():
-        if name in named:
-            held, section = named[name]
-            values.setdefault(held, []).append(
-                (name, from_mapping(section, _section(value, prefix + name), f'{prefix}{name}.')))
-            continue
-        field = known[name]
-        if spec_of(field) is None:
-            factory = field.default_factory
-            assert callable(factory), f'{prefix}{name}: a section field needs a default_factory'
-            value = from_mapping(type(factory()), _section(value, prefix + name),
-                                 f'{prefix}{name}.')
-        values[name] = value
-    try:
-        return cls(**values)
-    except ParameterError as error:
-        if prefix and not str(error).startswith(prefix):
-            raise ParameterError(prefix + str(error)) from None
-        raise
-
-
-def moved_keys(cls: type, prefix: str = '') -> dict[str, str]:
-    """Every key that moved out of or into section ``cls`` or a section in it (``MOVED``,
-    ``FORMERLY``), as old dotted key -> new dotted key (keys of the parameter file: a
-    section's ``prefix`` is where it sits in the file)."""
-    found = {f'{prefix}{name}': new for name, new in getattr(cls, 'MOVED', {}).items()}
-    found.update({old: f'{prefix}{name}' for name, old in getattr(cls, 'FORMERLY', {}).items()})
-    for field in parameter_fields(cls):
-        factory = field.default_factory
-        if spec_of(field) is None and 'sections' not in field.metadata and callable(factory):
-            found.update(moved_keys(type(factory()), f'{prefix}{field.name}.'))
-    return found
-
-
-def relocate(parameters: Mapping[str, Any], moved: Mapping[str, str], *,
-             warn: bool = True) -> dict[str, Any]:
-    """A copy of ``parameters`` (a mapping of sections, as a parameter file holds them) with
-    each key of ``moved`` it gives (old dotted key -> new) at its new place, with a
-    :class:`DeprecatedKeyWarning` naming the new key unless ``warn`` is False (a record
-    written before the move: nobody to tell).
-
-    Raises:
-        ParameterError: a key given both under its old and its new name.
-    """
-    out = {name: dict(value) if isinstance(value, Mapping) else value
-           for name, value in parameters.items()}
-    for old, new in moved.items():
-        (section, name), (new_section, new_name) = old.split('.', 1), new.split('.', 1)
-        if not isinstance(out.get(section), dict) or name not in out[section]:
-            continue
-        if new_name in (out.get(new_section) or {}):
-            raise ParameterError(f'{old} and {new} are both given: give {new} only')
-        if warn:
-            warnings.warn(f'{old} is deprecated: use {new}', DeprecatedKeyWarning,
-                          stacklevel=2)
-        value = out[section].pop(name)
-        out[new_section] = {**(out.get(new_section) or {}), new_name: value}
-    return out
-
-
-def moved_key(cls: type, key: str) -> str:
-    """The key a dotted parameter key of section ``cls`` names now: itself, or the new key
-    of a key that moved (with a :class:`DeprecatedKeyWarning`)."""
-    new = moved_keys(cls).get(key)
-    if new is None:
-        return key
-    warnings.warn(f'{key} is deprecated: use {new}', DeprecatedKeyWarning, stacklevel=2)
-    return new
-
-
-def merged(cls: type, base: Mapping[str, Any], changes: Mapping[str, Any],
-           prefix: str = '') -> dict[str, Any]:
-    """``base`` (a mapping of section ``cls``, as :func:`to_mapping` gives it) with
-    ``changes`` applied: a section in both is merged key by key, anything else replaced
-    (a mapping-valued parameter such as ``study.factors`` too); renamed keys and keys that
-    moved to another section are moved (with a :class:`DeprecatedKeyWarning`)."""
-    if not prefix:  # a whole parameter file: keys that moved go to their new sections
-        changes = relocate(changes, moved_keys(cls))
-    out = dict(base)
-    named = named_sections(cls)
-    fields = {f.name: f for f in parameter_fields(cls)}
-    for key, value in _renamed(cls, dict(changes), prefix).items():
-        field = fields.get(key)
-        sub = named[key][1] if key in named else \
-            type(field.default_factory()) if field is not None and spec_of(field) is None \
-            and callable(field.default_factory) else None
-        if sub is not None and isinstance(value, Mapping):
-            below = out.get(key)
-            out[key] = merged(sub, below if isinstance(below, Mapping) else {}, value,
-                              f'{prefix}{key}.')
-        else:
-            out[key] = value
-    return out
-
-
-def _section(value: Any, name: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise ParameterError(f'{name} must be a section (a mapping)')
     return value
 
 
-def _renamed(cls: type, mapping: dict[str, Any], prefix: str) -> dict[str, Any]:
-    """``mapping`` with the keys ``cls.RENAMED`` lists moved to their new places (warned)."""
-    for old, new in getattr(cls, 'RENAMED', {}).items():
-        if old not in mapping:
-            continue
-        warnings.warn(f'{prefix}{old} is deprecated: use {prefix}{new}', DeprecatedKeyWarning,
-                      stacklevel=3)
-        value = mapping.pop(old)
-        *parents, last = new.split('.')
-        node = mapping
-        for part in parents:
-            node[part] = dict(_section(node.get(part, {}), prefix + part))
-            node = node[part]
-        if last in node:
-            raise ParameterError(f'{prefix}{old} and {prefix}{new} are both given: give '
-                                 f'{prefix}{new} only')
-        node[last] = value
-    return mapping
+#: Names that moved out of this module, to where they live now: still found here, with a
+#: DeprecationWarning, for one release.
+MOVED = {**dict.fromkeys(('differences', 'flat_fields', 'from_mapping', 'leaves', 'merged',
+                          'to_mapping', 'unflatten'), 'mona_controller.mappings'),
+         **dict.fromkeys(('moved_key', 'moved_keys', 'relocate'), 'mona_controller.keys')}
 
 
-def to_mapping(section: Any) -> dict[str, Any]:
-    """A nested plain mapping of a section (tuples become lists), e.g. for JSON or YAML."""
-    out: dict[str, Any] = {}
-    for field in parameter_fields(section):
-        value = getattr(section, field.name)
-        spec = spec_of(field)
-        if 'sections' in field.metadata:
-            out.update({name: to_mapping(held) for name, held in value})
-        elif spec is None:
-            out[field.name] = to_mapping(value)
-        elif spec.keyed:
-            out[field.name] = {key: list(values) for key, values in value}
-        else:
-            out[field.name] = list(value) if isinstance(value, tuple) else value
-    return out
-
-
-def flat_fields(cls: type, prefix: str = '') -> Iterator[tuple[str, Any, Spec]]:
-    """Every leaf field as (dotted name, default, spec), for declaring ROS parameters."""
-    yield from _leaves(cls(), prefix)
-
-
-def unflatten(flat: Mapping[str, Any]) -> dict[str, Any]:
-    """Turn dotted keys (``world.arena_side``) into nested mappings."""
-    nested: dict[str, Any] = {}
-    for key, value in flat.items():
-        node = nested
-        *parents, leaf = key.split('.')
-        for part in parents:
-            node = node.setdefault(part, {})
-        node[leaf] = value
-    return nested
-
-
-def differences(section: Any, announced: Mapping[str, Any], prefix: str = '') -> list[str]:
-    """How ``announced`` (a mapping, e.g. another node's section as JSON) differs from
-    ``section`` as parameters: the mapping is built into a section first, so a key it leaves
-    out counts at its default. One line per differing key (``prefix`` + name, both values);
-    a mapping that is not a valid section is one line saying why.
-    """
-    try:
-        theirs = from_mapping(type(section), announced, prefix)
-    except ParameterError as error:
-        return [f'the announced {prefix.rstrip(".") or "section"} is not valid here: {error}']
-    mine_flat, theirs_flat = leaves(section, prefix), leaves(theirs, prefix)
-    return [f'{name}: announced {theirs_flat.get(name)!r}, here {value!r}'
-            for name, value in mine_flat.items() if theirs_flat.get(name) != value]
-
-
-def leaves(section: Any, prefix: str = '') -> dict[str, Any]:
-    """Every parameter of a section (an instance) by its dotted key: its value."""
-    return {name: value for name, value, _ in _leaves(section, prefix)}
-
-
-def _leaves(section: Any, prefix: str) -> Iterator[tuple[str, Any, Spec]]:
-    """Every leaf field of an instance as (dotted name, value, spec)."""
-    for field in parameter_fields(section):
-        spec = spec_of(field)
-        value = getattr(section, field.name)
-        if 'sections' in field.metadata:
-            for name, held in value:
-                yield from _leaves(held, f'{prefix}{name}.')
-        elif spec is None:
-            yield from _leaves(value, f'{prefix}{field.name}.')
-        else:
-            yield f'{prefix}{field.name}', value, spec
+def __getattr__(name: str) -> Any:
+    """A name of :data:`MOVED`, from where it lives now (with a DeprecationWarning)."""
+    module = MOVED.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    warnings.warn(f'{__name__}.{name} moved to {module}.{name}', DeprecationWarning,
+                  stacklevel=2)
+    return getattr(importlib.import_module(module), name)

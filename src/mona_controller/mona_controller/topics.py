@@ -1,6 +1,6 @@
 """The topic contract as one table: per topic its name, message type, QoS, publisher and role.
 
-Plain data, ROS-free: :mod:`mona_controller.qos` builds the rclpy profiles from it, the bag
+Plain data, ROS-free: :mod:`mona_controller.ros.qos` builds the rclpy profiles from it, the bag
 writers their offered QoS and topic list, the live view its channels, and the nodes their
 subscriptions, so no consumer writes a type or a QoS again. docs/interfaces.md explains each
 topic; ``tests/unit/test_topics.py`` holds every consumer's view to this table.

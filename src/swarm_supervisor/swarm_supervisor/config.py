@@ -29,18 +29,15 @@ import yaml
 from mona_controller import plugins as plugin_files
 from mona_controller.controllers.params import ControllerParams
 from mona_controller.keys import leaf, mapping_value, renamed_keys
+from mona_controller.mappings import from_mapping, merged, to_mapping, unflatten
 from mona_controller.mona import MonaParams
 from mona_controller.plugins import Plugin
 from mona_controller.schema import (
     NOT_A_PARAMETER,
     DeprecatedKeyWarning,
     ParameterError,
-    from_mapping,
-    merged,
     param,
     parameter_fields,
-    to_mapping,
-    unflatten,
     validate,
 )
 from swarm_metrics.metrics import MetricsParams
@@ -264,9 +261,9 @@ SKELETON = """  /**:
 
 def _sections_of(names: Any) -> str:
     """For keys that are parameters rather than sections, where each belongs ('' if none)."""
-    homes = {}
+    homes: dict[str, list[str]] = {}
     for section in parameter_fields(SwarmConfig):
-        for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc]
+        for field in dataclasses.fields(section.default_factory()):  # type: ignore[misc, operator]
             homes.setdefault(field.name, []).append(f'{section.name}.{field.name}')
     found = [' or '.join(homes[name]) for name in names if isinstance(name, str)
              and name in homes]

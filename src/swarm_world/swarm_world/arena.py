@@ -16,9 +16,10 @@ polygon. A ROS parameter file cannot mix strings and numbers in one list (rcl re
 "Sequence should be of same type"), so a file that both runners read spells obstacles so.
 
 Every module that needs the arena's geometry takes it from here: :mod:`swarm_world.physics`
-makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensing.sensors` casts the IR beams
-against the flat arrays of :func:`pack` (one ray test per kind: the walls, a disc, a segment
-for each edge of a rect or polygon), :mod:`swarm_world.placement` keeps robots clear of them
+makes static pymunk shapes of the obstacles, :mod:`swarm_world.sensing.ir` casts the IR
+beams against the flat arrays of :func:`pack` (one ray test per kind,
+:mod:`swarm_world.sensing.rays`: the walls, a disc, a segment for each edge of a rect or
+polygon), :mod:`swarm_world.placement` keeps robots clear of them
 by :meth:`clearance`, and :mod:`swarm_world.field` may clear the cue under them.
 """
 
@@ -28,7 +29,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -204,7 +205,7 @@ class Arena:
 
     @functools.cached_property
     def packed(self) -> ObstacleArrays:
-        """:func:`pack` of this arena alone (what ``sensors.proximity`` takes)."""
+        """:func:`pack` of this arena alone (what ``ir.proximity`` takes)."""
         return pack([self])
 
     def under(self, cells: int, cell_size: float) -> np.ndarray:
@@ -221,7 +222,7 @@ class Arena:
 COUNTS = {'disc': 3, 'rect': 4, 'polygon': None}
 
 
-def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
+def parse_obstacles(given: Sequence[tuple[str, tuple[Any, ...]]], side: float,
                     sources: Sequence[tuple[str, float, float]] = (),
                     prefix: str = 'world.obstacles.') -> tuple[Obstacle, ...]:
     """The obstacles of ``world.obstacles`` (name, values) pairs, in name order.
@@ -255,7 +256,7 @@ def parse_obstacles(given: Sequence[tuple[str, tuple]], side: float,
     return tuple(obstacles)
 
 
-def _parse(where: str, name: str, values: tuple, side: float) -> Obstacle:
+def _parse(where: str, name: str, values: tuple[Any, ...], side: float) -> Obstacle:
     """One obstacle from [kind, numbers...] or [numbers...]."""
     if values and isinstance(values[0], str):
         kind, numbers = values[0], values[1:]

@@ -40,7 +40,8 @@ def in_company(cleaners: np.ndarray, poses: np.ndarray, quorum: int,
 
 
 @numba.njit(cache=True, nogil=True)
-def _count_neighbours(xy, order, radius, company):  # pragma: no cover - compiled
+def _count_neighbours(xy: np.ndarray, order: np.ndarray, radius: float,
+                      company: np.ndarray) -> None:  # pragma: no cover - compiled
     # A sweep along x: each robot is compared only with those after it in x within radius,
     # and a pair within radius counts for both. Integer counts: no rounding to differ.
     r2 = radius * radius

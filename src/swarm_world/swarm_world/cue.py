@@ -49,7 +49,8 @@ def clean(cue: np.ndarray, cells: np.ndarray, kernel: np.ndarray, *,
 
 
 @numba.njit(cache=True)
-def _clean_kernel(cue, cells, kernel, levels, mode):  # pragma: no cover - jit
+def _clean_kernel(cue: np.ndarray, cells: np.ndarray, kernel: np.ndarray, levels: np.ndarray,
+                  mode: int) -> None:  # pragma: no cover - jit
     # Cell by cell what numpy's maximum(base - patch, 0.0) does on each robot's window (the
     # same float32 subtraction, and maximum's "a >= b ? a : b"), robot after robot: the same
     # bits, without a dozen array operations per robot.

@@ -17,8 +17,8 @@ from mona_controller.mona import MonaParams
 from swarm_world import cue as cue_field
 from swarm_world import transport
 from swarm_world.params import WorldParams
+from swarm_world.sensing.ground import ground_readings
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import ground_readings
 from swarm_world.sources import Source, load_cue_file
 
 

@@ -18,7 +18,8 @@ def yaw_to_quaternion(yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def yaw_from_quaternion(qz: np.ndarray, qw: np.ndarray) -> np.ndarray:
     """The yaw (rad, in (-pi, pi]) of z-axis quaternions (qz, qw)."""
-    return 2.0 * np.arctan2(qz, qw)
+    yaw: np.ndarray = 2.0 * np.arctan2(qz, qw)
+    return yaw
 
 
 def poses_from_rows(rows: ArrayLike) -> np.ndarray:

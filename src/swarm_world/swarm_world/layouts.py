@@ -47,7 +47,7 @@ def register_layout(name: str, build: Layout) -> Layout:
     return build
 
 
-def layout_obstacles(name: str, world: WorldParams) -> tuple[tuple[str, tuple], ...]:
+def layout_obstacles(name: str, world: WorldParams) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     """The obstacles layout ``name`` gives ``world``, as (name, values) pairs.
 
     Raises:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+from typing import Any
 
 import numpy as np
 
@@ -154,7 +155,7 @@ class Lockstep:
         The speed arrays are the core's own: use them before the next message."""
         return self.linear, self.angular, self.cleaner & ~self.absent
 
-    def counters(self) -> dict:
+    def counters(self) -> dict[str, Any]:
         """``misses`` per robot, ``absent`` robot ids, ``dropped`` and ``duplicates``, as
         /world/status reports them."""
         return {'misses': self.misses.tolist(), 'absent': np.flatnonzero(self.absent).tolist(),

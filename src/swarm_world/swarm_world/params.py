@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from mona_controller.schema import ParameterError, param, validate
 from swarm_world.arena import Arena, parse_obstacles
@@ -56,20 +57,20 @@ class WorldParams:
     collision_slop: float = param(0.0005, unit='m', low=0.0, high=0.01,
                                   doc='allowed overlap of colliding bodies in pymunk')
     # Beyond the paper (docs/model.md "Leaks beyond the paper"); every default is the paper.
-    sources: tuple = param((), keyed=True,
+    sources: tuple[Any, ...] = param((), keyed=True,
                            doc='leak sources, name -> [x m, y m, radius m, peak cue units]; '
                                "none: the paper's one disc ('source': the arena centre, "
                                'cue_diameter, cue_peak)')
-    source_profile: tuple = param((), keyed=True,
+    source_profile: tuple[Any, ...] = param((), keyed=True,
                                   doc="name -> ['linear'] or ['gaussian'] (default linear; "
                                       'gaussian: sigma = radius / 3, 0 beyond the radius)')
-    source_emission: tuple = param((), keyed=True,
+    source_emission: tuple[Any, ...] = param((), keyed=True,
                                    doc='name -> [cue units/s]: a leaking source restores its '
                                        'profile at this rate (at its peak), never above it')
-    source_velocity: tuple = param((), keyed=True,
+    source_velocity: tuple[Any, ...] = param((), keyed=True,
                                    doc='name -> [vx m/s, vy m/s]: moves at constant velocity, '
                                        'reflecting at the walls')
-    source_path: tuple = param((), keyed=True,
+    source_path: tuple[Any, ...] = param((), keyed=True,
                                doc='name -> [speed m/s, x1, y1, x2, y2, ...]: moves along the '
                                    'closed loop from its position through these waypoints (m)')
     cue_file: str = param('', doc="initial cue from a .npy array (cue units, row = y) or an "
@@ -83,7 +84,7 @@ class WorldParams:
     transport_period: float = param(1.0, unit='s', low=0.001, high=3600.0,
                                     doc='how often diffusion, evaporation and emission update '
                                         'the cue (sim time)')
-    obstacles: tuple = param((), keyed=True,
+    obstacles: tuple[Any, ...] = param((), keyed=True,
                              doc='static obstacles, name -> [disc, x, y, radius], [rect, x0, '
                                  'y0, x1, y1] or [polygon, x1, y1, x2, y2, x3, y3, ...] (m; '
                                  'a convex polygon; the kind may be left out: docs/model.md '
@@ -206,7 +207,7 @@ class WorldParams:
         return (self.arena_side / 2, self.arena_side / 2)
 
 
-def _numbers(where: str, values: tuple, count: int | None) -> tuple[float, ...]:
+def _numbers(where: str, values: tuple[Any, ...], count: int | None) -> tuple[float, ...]:
     """``values`` as floats, ``count`` of them (any number if None)."""
     if (count is not None and len(values) != count) or any(
             isinstance(v, (bool, str)) for v in values):

@@ -17,6 +17,7 @@ static shapes of the space's static body, neither elastic nor rough.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numba
 import numpy as np
@@ -25,7 +26,7 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import ffi, lib
 
 from swarm_world.arena import Disc, Obstacle
-from swarm_world.sensing.sensors import heading_trig
+from swarm_world.sensing.headings import heading_trig
 
 BODY_MASS = 0.1  # kg; only the ratio between robots matters, and all are equal
 WALL_THICKNESS = 0.05  # m, outside the arena so the inner faces sit exactly on its edges
@@ -107,7 +108,7 @@ class Physics:
             space.remove(*space.shapes, *space.bodies)
 
     @staticmethod
-    def _batched(fields: pymunk.batch.BodyFields, buffer: pymunk.batch.Buffer):
+    def _batched(fields: pymunk.batch.BodyFields, buffer: pymunk.batch.Buffer) -> Any:
         """The argument block of pymunk's batched body iterators for ``buffer``."""
         data = ffi.new('pmBatchedData *')
         data.fields = fields.value
@@ -177,7 +178,9 @@ def static_shape(body: pymunk.Body, obstacle: Obstacle) -> pymunk.Shape:
 
 
 @numba.njit(cache=True)
-def _wrench_kernel(linear, angular, trig, twist, rows, scale, wrench):  # pragma: no cover
+def _wrench_kernel(linear: np.ndarray, angular: np.ndarray, trig: np.ndarray, twist: np.ndarray,
+                   rows: np.ndarray, scale: np.ndarray,
+                   wrench: np.ndarray) -> None:  # pragma: no cover - jitted
     """Robot i's wrench into wrench[rows[i]]: the force and torque that take its velocity
     (twist) to the command (linear along its heading, whose cos and sin are trig[i], and
     angular) within one step."""
@@ -217,7 +220,7 @@ class PhysicsBatch:
              trig: np.ndarray) -> np.ndarray:
         """Drive every robot of every space (rows in member order) for ``dt`` seconds; return
         the new poses [R, 3] (a new array; each member's ``poses`` is its rows of it).
-        ``trig``: :func:`~swarm_world.sensing.sensors.heading_trig` of the poses now."""
+        ``trig``: :func:`~swarm_world.sensing.headings.heading_trig` of the poses now."""
         if self._scale[0] != dt:
             self._scale = (dt, np.concatenate([member._scale_for(dt)
                                                for member in self.members]))

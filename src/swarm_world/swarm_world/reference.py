@@ -1,8 +1,8 @@
 """Plain-Python references of the fast sensing and placement code, and checks against them.
 
-The IR kernel (:mod:`swarm_world.sensing.sensors`) is fast because it skips work: cell lists find a
-robot's neighbours, an approximate beam direction rules most of them out, a bounding box rules
-out the obstacles far away, and the walls are tested only near them. Placement
+The IR kernel (:mod:`swarm_world.sensing.ir`) is fast because it skips work: cell lists
+find a robot's neighbours, an approximate beam direction rules most of them out, a bounding
+box rules out the obstacles far away, and the walls are tested only near them. Placement
 (:mod:`swarm_world.placement`) buckets the placed robots in cells. The references here skip
 nothing: every robot against every other one, every shape, the exact direction of every beam,
 every spot against every placed robot, in plain Python (no numba), with the same arithmetic
@@ -23,12 +23,12 @@ import numpy as np
 
 from swarm_world.arena import Arena, Disc, Obstacle
 from swarm_world.placement import TRIES_PER_ROBOT, PlacementError, place_robots, placement_rng
-from swarm_world.sensing.sensors import proximity
+from swarm_world.sensing.ir import proximity
 
 
 def ir_ring(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_range: float,
             arena: Arena) -> tuple[np.ndarray, np.ndarray]:
-    """The IR ring the simplest way: what :func:`swarm_world.sensing.sensors.proximity` computes.
+    """The IR ring the simplest way: what :func:`swarm_world.sensing.ir.proximity` computes.
 
     A beam from robot i's centre at its heading + bearing sees the nearest of: the walls
     (tested when the robot is within reach of one, as the kernel does), every obstacle, and
@@ -141,7 +141,7 @@ def marched_ir(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_r
 
 def check_ir(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_range: float,
              arena: Arena) -> tuple[np.ndarray, np.ndarray]:
-    """Cast the IR ring with :func:`swarm_world.sensing.sensors.proximity` and with
+    """Cast the IR ring with :func:`swarm_world.sensing.ir.proximity` and with
     :func:`ir_ring`.
 
     Returns:

@@ -174,4 +174,5 @@ def load_cue_file(path: str, cells: int) -> np.ndarray:
                              'cue units')
     rows = np.minimum((np.arange(cells) + 0.5) * values.shape[0] / cells, values.shape[0] - 1)
     cols = np.minimum((np.arange(cells) + 0.5) * values.shape[1] / cells, values.shape[1] - 1)
-    return values[rows.astype(np.int64)][:, cols.astype(np.int64)].astype(np.float32)
+    cue: np.ndarray = values[rows.astype(np.int64)][:, cols.astype(np.int64)].astype(np.float32)
+    return cue

@@ -21,16 +21,10 @@ from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
 from swarm_world.sensing import noise
 from swarm_world.sensing.delay import CommandDelay
+from swarm_world.sensing.ground import NO_NOISE, ground_kernel, ground_many_kernel, sensor_geometry
+from swarm_world.sensing.headings import heading_trig
+from swarm_world.sensing.ir import proximity, proximity_many
 from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.sensors import (
-    NO_NOISE,
-    ground_kernel,
-    ground_many_kernel,
-    heading_trig,
-    proximity,
-    proximity_many,
-    sensor_geometry,
-)
 from swarm_world.sensing.transfer import transfer_table
 from swarm_world.timing import crossed
 
@@ -67,7 +61,7 @@ class World:
         self._step_ns = params.step_ns
         self._cleaning_ns = round(params.cleaning_period * 1e9)
         self.footprint = cue_field.footprint_cells(sensing.ground_footprint, params.cell_size)
-        #: The ground sensors: where they sit (sensors.sensor_geometry) and what they read on
+        #: The ground sensors: where they sit (ground.sensor_geometry) and what they read on
         #: a cue value (transfer.transfer_table; empty: the value itself).
         self.sensor_geometry = sensor_geometry(mona, sensing)
         self.transfer = transfer_table(sensing)
@@ -204,7 +198,7 @@ class World:
     def clearance(self, poses: np.ndarray) -> np.ndarray:
         """[N] how far each robot's centre is from the nearest wall or obstacle (m)."""
         x, y, side = poses[:, 0], poses[:, 1], self.params.arena_side
-        walls = np.minimum(np.minimum(x, y), np.minimum(side - x, side - y))
+        walls: np.ndarray = np.minimum(np.minimum(x, y), np.minimum(side - x, side - y))
         if not self.arena.obstacles:
             return walls
         return np.array([self.arena.clearance(px, py) for px, py in poses[:, :2].tolist()])

@@ -18,10 +18,7 @@ the first step, so that the parameters and other kinds never import numba).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import os
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -33,6 +30,7 @@ from mona_controller.controllers.network_weights import (
     input_count,
     load_weights,
     shapes,
+    weights_file,
 )
 from mona_controller.controllers.params import ControllerParams
 from mona_controller.mona import MonaParams
@@ -84,21 +82,10 @@ def check_weights(params: NetworkParams) -> None:
         ParameterError: naming the key: a missing or bad file, a hash that does not match,
             an array missing, extra or of the wrong shape.
     """
-    if not params.weights:
-        if params.weights_sha256:
-            raise ParameterError('controller.network.weights_sha256 is set but '
-                                 'controller.network.weights is empty')
+    found = weights_file('network', params.weights, params.weights_sha256)
+    if found is None:
         return
-    path = os.path.abspath(os.path.expanduser(params.weights))
-    key = f'controller.network.weights = {params.weights!r}'
-    try:
-        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    except OSError as error:
-        raise ParameterError(f'{key}: cannot read {path} ({error.strerror})') from None
-    if params.weights_sha256 not in ('', digest):
-        raise ParameterError(f'{key}: its SHA-256 is {digest}, not '
-                             f'controller.network.weights_sha256 = {params.weights_sha256!r}')
-    arrays = load_weights(path, digest)
+    key, path, digest, arrays = found
     hidden = params.hidden
     if hidden > MAX_HIDDEN:
         raise ParameterError(f'controller.network.hidden = {hidden}: at most {MAX_HIDDEN}')

@@ -23,8 +23,11 @@ def _softsign(x: float) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
-def forward(ground, ranges, is_robot, weights, offset, hidden, recurrent, ir_range, top,
-            stops, previous, context, wheels, cleaner):  # pragma: no cover (compiled)
+def forward(ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray, weights: np.ndarray,
+            offset: np.ndarray, hidden: np.ndarray, recurrent: np.ndarray,
+            ir_range: np.ndarray, top: np.ndarray, stops: np.ndarray, previous: np.ndarray,
+            context: np.ndarray, wheels: np.ndarray,
+            cleaner: np.ndarray) -> None:  # pragma: no cover (compiled)
     """One step of every robot's net (the kernel; :func:`reference_forward` in Python).
 
     Robot i reads its net at ``weights[offset[i]:]`` (:func:`flatten`'s layout), with

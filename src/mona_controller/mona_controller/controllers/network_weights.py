@@ -5,7 +5,9 @@ The weights file (``controller.network.weights``) is an ``.npz`` of float64 arra
 [hidden, hidden]. :func:`save_weights` writes one byte for byte the same for the same
 weights (fixed zip timestamps); :func:`genome_size` and :func:`weights_from_genome` map a
 flat genome (neuroevolution) to them; :func:`flatten` lays them out for the kernel
-(:mod:`.network_forward`).
+(:mod:`.network_forward`). The ``stand_net`` kind's nets use the same format: it shares
+:func:`weights_file` (a kind's file resolved and checked against its hash) and
+:func:`cut_genome`.
 """
 
 from __future__ import annotations
@@ -58,12 +60,23 @@ def weights_from_genome(genome: Sequence[float] | np.ndarray, ir_count: int, hid
     Raises:
         ValueError: the genome has the wrong length.
     """
+    return cut_genome(genome, shapes(input_count(ir_count), hidden, recurrent))
+
+
+def cut_genome(genome: Sequence[float] | np.ndarray,
+               layout: Mapping[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
+    """Cut a flat genome into arrays of the shapes ``layout`` gives, in its order (the
+    network kind's :func:`shapes`, or another kind's of the same format).
+
+    Raises:
+        ValueError: the genome has the wrong length.
+    """
     flat = np.asarray(genome, dtype=np.float64)
-    expected = genome_size(ir_count, hidden, recurrent)
+    expected = sum(math.prod(shape) for shape in layout.values())
     if flat.shape != (expected,):
         raise ValueError(f'a genome of {flat.size} weights for a net of {expected}')
     out, start = {}, 0
-    for name, shape in shapes(input_count(ir_count), hidden, recurrent).items():
+    for name, shape in layout.items():
         size = math.prod(shape)
         out[name] = flat[start:start + size].reshape(shape).copy()
         start += size
@@ -114,6 +127,34 @@ def load_weights(path: str, sha256: str) -> dict[str, np.ndarray]:
             raise ParameterError(f'{key}: {name} holds a value that is not finite')
         array.flags.writeable = False
     return arrays
+
+
+def weights_file(kind: str, weights: str, weights_sha256: str
+                 ) -> tuple[str, str, str, dict[str, np.ndarray]] | None:
+    """A kind's weights file (``controller.<kind>.weights`` and ``.weights_sha256``), resolved
+    and checked against its hash: (the key, as error messages name it; the absolute path; its
+    SHA-256; its arrays), or None where no file is named. Whether the arrays fit the kind's
+    net is the kind's to check.
+
+    Raises:
+        ParameterError: naming the key: a hash without a file, a missing or bad file, a hash
+            that does not match.
+    """
+    if not weights:
+        if weights_sha256:
+            raise ParameterError(f'controller.{kind}.weights_sha256 is set but '
+                                 f'controller.{kind}.weights is empty')
+        return None
+    path = os.path.abspath(os.path.expanduser(weights))
+    key = f'controller.{kind}.weights = {weights!r}'
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as error:
+        raise ParameterError(f'{key}: cannot read {path} ({error.strerror})') from None
+    if weights_sha256 not in ('', digest):
+        raise ParameterError(f'{key}: its SHA-256 is {digest}, not '
+                             f'controller.{kind}.weights_sha256 = {weights_sha256!r}')
+    return key, path, digest, load_weights(path, digest)
 
 
 def flatten(arrays: Mapping[str, np.ndarray]) -> np.ndarray:

@@ -36,11 +36,8 @@ b2), with 2 + 2K + 4 inputs; with ``weights: ''`` they are drawn from ``seed``.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
-import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -48,9 +45,11 @@ from mona_controller.controllers.base import Command, Controller, State
 from mona_controller.controllers.beeclust import CONTROLLER_STREAM
 from mona_controller.controllers.network_weights import (
     MAX_HIDDEN,
+    cut_genome,
     flatten,
     load_weights,
     shapes,
+    weights_file,
 )
 from mona_controller.controllers.params import ControllerParams
 from mona_controller.mona import MonaParams
@@ -104,22 +103,10 @@ def check_weights(params: StandNetParams) -> None:
         ParameterError: naming the key: a missing or bad file, a hash that does not match,
             an array missing, extra or of the wrong shape.
     """
-    if not params.weights:
-        if params.weights_sha256:
-            raise ParameterError('controller.stand_net.weights_sha256 is set but '
-                                 'controller.stand_net.weights is empty')
+    found = weights_file('stand_net', params.weights, params.weights_sha256)
+    if found is None:
         return
-    path = os.path.abspath(os.path.expanduser(params.weights))
-    key = f'controller.stand_net.weights = {params.weights!r}'
-    try:
-        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    except OSError as error:
-        raise ParameterError(f'{key}: cannot read {path} ({error.strerror})') from None
-    if params.weights_sha256 not in ('', digest):
-        raise ParameterError(f'{key}: its SHA-256 is {digest}, not '
-                             f'controller.stand_net.weights_sha256 = '
-                             f'{params.weights_sha256!r}')
-    arrays = load_weights(path, digest)
+    key, path, digest, arrays = found
     inputs = arrays['w1'].shape[1] if arrays.get('w1', np.zeros(0)).ndim == 2 else 0
     expected = shapes(inputs, params.hidden, False)
     if set(arrays) != set(expected) or any(arrays[name].shape != shape
@@ -157,16 +144,7 @@ def weights_from_genome(genome: Sequence[float] | np.ndarray, ir_count: int,
     Raises:
         ValueError: the genome has the wrong length.
     """
-    flat = np.asarray(genome, dtype=np.float64)
-    expected = genome_size(ir_count, hidden)
-    if flat.shape != (expected,):
-        raise ValueError(f'a genome of {flat.size} weights for a net of {expected}')
-    out, start = {}, 0
-    for name, shape in shapes(input_count(ir_count), hidden, False).items():
-        size = math.prod(shape)
-        out[name] = flat[start:start + size].reshape(shape).copy()
-        start += size
-    return out
+    return cut_genome(genome, shapes(input_count(ir_count), hidden, False))
 
 
 def stand_probability(logit: float) -> float:

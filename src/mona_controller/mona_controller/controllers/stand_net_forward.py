@@ -13,9 +13,12 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
-def step_kernel(ground, ranges, is_robot, now, deciding, draws, weights, offset, hidden,
-                ir_range, top, needs_robot, standing, began, level0, last_seen, seen_since,
-                wheels, cleaner):  # pragma: no cover (compiled)
+def step_kernel(ground: np.ndarray, ranges: np.ndarray, is_robot: np.ndarray, now: np.ndarray,
+                deciding: np.ndarray, draws: np.ndarray, weights: np.ndarray,
+                offset: np.ndarray, hidden: np.ndarray, ir_range: np.ndarray, top: np.ndarray,
+                needs_robot: np.ndarray, standing: np.ndarray, began: np.ndarray,
+                level0: np.ndarray, last_seen: np.ndarray, seen_since: np.ndarray,
+                wheels: np.ndarray, cleaner: np.ndarray) -> None:  # pragma: no cover (compiled)
     """One control step of every robot.
 
     Robot i reads its net at ``weights[offset[i]:]`` (w1, b1, w2, b2 flattened) with

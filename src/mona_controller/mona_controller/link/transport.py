@@ -60,7 +60,8 @@ class SerialTransport(Transport):
         first = self._port.read(1)
         if not first:
             return b''
-        return first + self._port.read(self._port.in_waiting)
+        data: bytes = first + self._port.read(self._port.in_waiting)
+        return data
 
     def close(self) -> None:
         """Close the port."""

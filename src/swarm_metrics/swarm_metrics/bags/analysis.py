@@ -19,9 +19,11 @@ import numpy as np
 
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.controllers import State
+from mona_controller.keys import moved_keys, relocate
+from mona_controller.mappings import from_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import from_mapping, moved_keys, relocate
-from swarm_metrics.bags.reader import BagError, EpisodeBag
+from swarm_metrics.bags.reader import EpisodeBag
+from swarm_metrics.bags.scan import BagError
 from swarm_metrics.metrics import MetricsParams, metric_names, sample_field
 from swarm_world.field import CueField
 from swarm_world.params import WorldParams
@@ -57,13 +59,14 @@ class EpisodeSetup:
     mona: MonaParams
     sensing: SensingParams
     metrics: MetricsParams
-    parameters: dict  #: every section, as announced (a key that moved since at its new key)
+    #: every section, as announced (a key that moved since at its new key)
+    parameters: dict[str, Any]
     #: the controller kind's states, by code: announced, or (an older announcement) the
     #: kind's if it is registered here, else none
     states: tuple[State, ...] = ()
 
     @classmethod
-    def from_announcement(cls, announcement: dict) -> EpisodeSetup:
+    def from_announcement(cls, announcement: dict[str, Any]) -> EpisodeSetup:
         """Parse and validate the supervisor's /episode message (docs/interfaces.md).
 
         Raises:
@@ -146,7 +149,7 @@ class MetricsReplica:
         return crossed(self._last_pose_ns - start, time_ns - start, self.setup.sample_ns)
 
     def pose(self, time_ns: int,
-             poses: np.ndarray | None) -> tuple[list[tuple[int, dict]], bool]:
+             poses: np.ndarray | None) -> tuple[list[tuple[int, dict[str, float]]], bool]:
         """A /world/poses message. Returns (rows now complete, whether this pose is sampled).
 
         ``poses`` [N, 3] may be None for a pose that is not :meth:`due` (saves decoding it).
@@ -163,7 +166,7 @@ class MetricsReplica:
             self._pending.append((time_ns, k, poses))
         return rows, due
 
-    def advance(self, time_ns: int) -> list[tuple[int, dict]]:
+    def advance(self, time_ns: int) -> list[tuple[int, dict[str, float]]]:
         """Take the pending samples stamped at or before ``time_ns`` (and ``confirmed_ns``)."""
         limit = min(time_ns, self.confirmed_ns)
         rows = []
@@ -179,7 +182,7 @@ class MetricsReplica:
         """The poses of the sample :meth:`advance` would take next (else the latest poses)."""
         return self._pending[0][2] if self._pending else self.poses
 
-    def finish(self) -> list[tuple[int, dict]]:
+    def finish(self) -> list[tuple[int, dict[str, float]]]:
         """Take every pending sample (the world has finished or gone: nothing more comes)."""
         self.confirmed_ns = NEVER
         return self.advance(NEVER)
@@ -218,7 +221,7 @@ class Recomputation:
     online_max_diff: float | None  #: max |online - offline| over matched samples (None: none)
     cue_maps_checked: int  #: recorded /world/cue_map images compared with the rebuilt cue
     cue_map_max_diff: int  #: max |map - rint(rebuilt cue)| over them (cue units)
-    last_status: dict | None  #: the world's final /world/status
+    last_status: dict[str, Any] | None  #: the world's final /world/status
     snapshots: dict[float, tuple[np.ndarray, np.ndarray]]  #: t -> (cue, poses)
     cue_maps_differing: int = 0  #: how many of the checked cue maps differ at all
     cue_map_first_diff_ns: int | None = None  #: log time of the first map that differs
@@ -272,9 +275,9 @@ def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomp
     events.sort(key=lambda event: (event[0], event[1]))
     pending = sorted(snapshot_times)
     snapshots: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-    timed: list[tuple[int, dict]] = []
+    timed: list[tuple[int, dict[str, float]]] = []
 
-    def keep(rows: list[tuple[int, dict]], poses: np.ndarray) -> None:
+    def keep(rows: list[tuple[int, dict[str, float]]], poses: np.ndarray) -> None:
         for row in rows:
             timed.append(row)
             while pending and pending[0] <= row[1]['t'] + 1e-9:
@@ -312,7 +315,7 @@ def recompute(bag: EpisodeBag, snapshot_times: tuple[float, ...] = ()) -> Recomp
                          differing, first_diff, online_first)
 
 
-def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict]]
+def _compare_online(bag: EpisodeBag, timed: list[tuple[int, dict[str, float]]]
                     ) -> tuple[int, float | None, tuple[int, str] | None]:
     """(online samples, max |online - offline| over the samples both have, (log time, metric)
     of the first sample that differs)."""

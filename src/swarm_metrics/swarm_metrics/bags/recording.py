@@ -14,24 +14,20 @@ publishes what it returns.
 The start of an episode is recorded before the world steps: the world publishes t = 0's cue
 map, sources, states and poses, then holds its first step until every recorder's
 ``recorded_ns`` reaches ``start_ns`` (docs/interfaces.md, "Recorders"), which
-:attr:`Episode.recorded_ns` does only once those are in the bag.
-
-``/world/robot_states`` has no stamp: the world publishes one with every ``/world/poses``,
-just before it, so the n-th states message of an episode belongs to its n-th poses message;
-the recorder pairs them by that count (whichever topic's message comes first) and records
-the states of each sampled pose (and of t = 0) at the pose's time.
+:attr:`~swarm_metrics.bags.record.EpisodeRecord.recorded_ns` does only once those are in the
+bag. What the recorder knows of the episode it records (and how it pairs the robots' states
+with the poses) is :mod:`swarm_metrics.bags.record`.
 """
 
 from __future__ import annotations
 
 import bisect
 import collections
-import dataclasses
-import struct
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, cast
 
-from mona_controller.contract import (
+from mona_controller.contract import ContractError, WorldState, WorldStatus
+from mona_controller.topics import (
     CLEANING,
     CLOCK,
     CUE_MAP,
@@ -42,134 +38,21 @@ from mona_controller.contract import (
     SOURCES,
     STATUS,
     TOPICS,
-    ContractError,
-    WorldState,
-    WorldStatus,
     metric_topic,
     topic_of,
 )
 from swarm_metrics.bags.analysis import NEVER, AnnouncementError, EpisodeSetup, MetricsReplica
-from swarm_metrics.bags.completeness import Finding, check_bag_file
-from swarm_metrics.bags.reader import BagError, RawMessage, decode, decode_json, poses_of
+from swarm_metrics.bags.completeness import check_bag_file
+from swarm_metrics.bags.reader import decode, decode_json, poses_of
+from swarm_metrics.bags.record import Announced, Closed, EpisodeRecord, Row
+from swarm_metrics.bags.scan import BagError, RawMessage
 from swarm_metrics.bags.writer import EpisodeBagWriter, offered
 from swarm_metrics.metrics import metric_names
-from swarm_world.messages.cdr import float64_cdr
+from swarm_world.messages.cdr import float64_cdr, markers_stamp_ns, stamp_ns
 
 STRING, POSE_ARRAY = TOPICS[EPISODE].type, TOPICS[POSES].type
 #: Messages of an episode not yet announced that are kept for its bag (see Recorder.route).
 EARLY_LIMIT = 20_000
-#: A metric row as the node publishes it: (log time ns, {metric: value}).
-Row = tuple[int, dict[str, float]]
-#: What a record must hold at the episode's ``start_ns`` (beside the announcement and the
-#: t = 0 sample it gives): the completeness checks demand the states and the sources there,
-#: and the cue map of t = 0 makes the bag the embedded runner's. The world publishes these
-#: on keep-last-1 (map, sources) or paired (states) topics before its first step, and holds
-#: that step until the record has them.
-START = frozenset({CUE_MAP, SOURCES, ROBOT_STATES})
-
-
-def stamp_ns(data: bytes) -> int:
-    """The stamp of a serialized message whose first field is a Time (a Header, a Clock).
-
-    Reads the CDR bytes directly (encapsulation, then sec int32 and nanosec uint32), so a
-    recorded message needs no deserialization.
-    """
-    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
-    return sec * 1_000_000_000 + nanosec
-
-
-def markers_stamp_ns(data: bytes) -> int | None:
-    """The stamp of a serialized MarkerArray's first marker (None: no markers)."""
-    big = data[1] != 1
-    (count,) = struct.unpack_from('>I' if big else '<I', data, 4)
-    if count == 0:
-        return None
-    sec, nanosec = struct.unpack_from('>iI' if big else '<iI', data, 8)
-    return sec * 1_000_000_000 + nanosec
-
-
-@dataclasses.dataclass
-class Episode:
-    """What is known of the episode being recorded."""
-
-    setup: EpisodeSetup
-    bag: EpisodeBagWriter
-    replica: MetricsReplica
-    metrics: tuple[str, ...]  #: the metrics recorded (the table's when the episode opened)
-    samples: int = 0  #: metric samples taken (t = 0 included)
-    cleaning: int = 0  #: /world/cleaning messages recorded
-    last_pose_ns: int = 0
-    last_map_ns: int = -1
-    last_sources_ns: int = -1  #: the latest /world/sources seen (-1: none yet)
-    #: The topics of :data:`START` recorded at ``start_ns`` so far.
-    started: set[str] = dataclasses.field(default_factory=set)
-    poses_seen: int = 0  #: /world/poses messages of the episode, t = 0's included
-    states_seen: int = 0  #: /world/robot_states messages of the episode
-    #: pose index -> log time, of sampled poses whose states have not arrived yet
-    states_wanted: dict[int, int] = dataclasses.field(default_factory=dict)
-    #: pose index -> states that arrived before their pose
-    states_early: dict[int, bytes] = dataclasses.field(default_factory=dict)
-    running: bool = False  #: the world said it runs the episode
-    obstacles: bool = False  #: the world's /world/obstacles is in the bag
-    final: WorldStatus | None = None  #: the world's finished or failed status
-    cleaning_stamps: list[int] = dataclasses.field(default_factory=list)  #: sorted
-    counted: tuple[int, int] | None = None  #: the world's latest (time_ns, cleaning_events)
-
-    @property
-    def recorded_ns(self) -> int:
-        """Sim time up to which the record is whole: the last sample's time, once the start
-        (:data:`START` at ``start_ns``) is recorded; ``start_ns - 1`` before."""
-        if not self.started >= START:
-            return self.setup.start_ns - 1
-        return self.setup.start_ns + max(self.samples - 1, 0) * self.setup.sample_ns
-
-    def all_arrived(self) -> bool:
-        """The world reported the end and everything its final status counts is here."""
-        if self.final is None:
-            return False
-        # The world publishes the final poses and cue map, then its final status, on three
-        # topics: any of them may come last.
-        # A world that publishes states and sources publishes them with the poses and the map.
-        end_ns, counted = self.final.time_ns, self.final.cleaning_events
-        return (self.last_pose_ns >= end_ns and self.last_map_ns >= end_ns
-                and (counted is None or self.cleaning >= counted)
-                and (self.states_seen == 0 or self.states_seen >= self.poses_seen)
-                and (self.last_sources_ns < 0 or self.last_sources_ns >= end_ns))
-
-
-@dataclasses.dataclass(frozen=True)
-class Closed:
-    """An episode's record, closed, with the completeness verdict on its bag."""
-
-    episode: int
-    start_ns: int
-    path: Path
-    messages: int
-    #: What :func:`~swarm_metrics.completeness.check_bag` found (empty: the record is
-    #: complete; None: closed without a verdict, see :meth:`Recorder.close`).
-    findings: tuple[Finding, ...] | None
-
-    @property
-    def complete(self) -> bool:
-        """The bag passed every completeness check."""
-        return self.findings == ()
-
-    @property
-    def problems(self) -> tuple[str, ...]:
-        """What the record lacks, one line each (empty: it is complete)."""
-        if self.findings is None:
-            return ('not judged: closed before the episode ended; `mona-swarm analyze` '
-                    'judges it',)
-        return tuple(map(str, self.findings))
-
-
-class Announced(NamedTuple):
-    """What an /episode message did."""
-
-    setup: EpisodeSetup | None  #: the episode it opened (None: a shutdown, or redelivered)
-    closed: Closed | None  #: the previous episode's record, if this closed it
-    rows: list[Row]  #: metric rows to publish (the new episode's t = 0)
-    shutdown: bool = False  #: the supervisor announced the end of the run
 
 
 class Recorder:
@@ -197,7 +80,7 @@ class Recorder:
                            SOURCES: round(cue_map_period * 1e9),
                            CLOCK: round(clock_period * 1e9)}
         self.record_all = record_all
-        self.episode: Episode | None = None
+        self.episode: EpisodeRecord | None = None
         self.now_ns = 0  #: the latest sim time seen, for messages without a stamp
         self.early_lost = 0  #: early messages dropped because EARLY_LIMIT was reached
         self._closed_end_ns = -1  # older messages belong to no episode still to come
@@ -205,6 +88,11 @@ class Recorder:
         self._last_recorded: dict[str, int] = {}  # of the periodic topics
         self._early_status: tuple[WorldStatus, bytes] | None = None
         self._obstacles: bytes | None = None  # the world's latest /world/obstacles
+
+    @property
+    def _current(self) -> EpisodeRecord:
+        """The open episode: the private steps below run only while one is open."""
+        return cast(EpisodeRecord, self.episode)
 
     # --- episodes -------------------------------------------------------------------
 
@@ -233,7 +121,7 @@ class Recorder:
         """The folder that receives episode ``episode``'s bag (a subclass may choose another)."""
         return self.output_dir / f'episode_{episode}'
 
-    def _open(self, setup: EpisodeSetup, document: dict, data: bytes) -> list[Row]:
+    def _open(self, setup: EpisodeSetup, document: dict[str, Any], data: bytes) -> list[Row]:
         folder = self.episode_folder(setup.episode)
         folder.mkdir(parents=True, exist_ok=True)
         path, n = folder / 'bag', 1
@@ -241,7 +129,7 @@ class Recorder:
             path, n = folder / f'bag_{n}', n + 1
         bag = EpisodeBagWriter(path, chunk_period=self.chunk_period)
         metrics = metric_names()
-        self.episode = Episode(setup, bag, MetricsReplica(setup), metrics,
+        self.episode = EpisodeRecord(setup, bag, MetricsReplica(setup), metrics,
                                last_pose_ns=setup.start_ns)
         # Samples wait until the world's status says every cleaning event up to them is here.
         self.episode.replica.confirmed_ns = setup.start_ns
@@ -310,7 +198,7 @@ class Recorder:
         return self._apply_status(status, data)
 
     def _apply_status(self, status: WorldStatus, data: bytes) -> tuple[bool, list[Row]]:
-        episode = self.episode
+        episode = self._current
         self.write(STATUS, self.now_ns, data)
         if status.cleaning_events is None:  # a world that does not count: trust the order
             episode.replica.confirmed_ns = NEVER
@@ -328,7 +216,7 @@ class Recorder:
         """Take the samples up to the world's latest count once every cleaning event it
         counted is here (the cleaning events and the poses travel on two topics, and after a
         stall their repairs can come in any order)."""
-        episode = self.episode
+        episode = self._current
         if episode.counted is None:
             return []
         time_ns, count = episode.counted
@@ -375,7 +263,7 @@ class Recorder:
         self._early.append((topic, data))
 
     def _poses(self, stamp: int, data: bytes) -> list[Row]:
-        episode = self.episode
+        episode = self._current
         episode.last_pose_ns = max(episode.last_pose_ns, stamp)
         poses = None
         if episode.replica.due(stamp):
@@ -391,20 +279,15 @@ class Recorder:
             if episode.counted is not None:  # the status may have confirmed its cleaning
                 rows += episode.replica.advance(stamp)  # first (a world that holds here)
         else:
-            episode.states_early.pop(episode.poses_seen, None)
-            episode.poses_seen += 1
+            episode.pose_skipped()
         return self._samples(rows)
 
     # --- the robots' states: paired with the poses by count --------------------------
 
     def _want_states(self, stamp: int) -> None:
         """The open episode's next pose is a sample at ``stamp``: record its states there."""
-        episode = self.episode
-        index, episode.poses_seen = episode.poses_seen, episode.poses_seen + 1
-        data = episode.states_early.pop(index, None)
-        if data is None:
-            episode.states_wanted[index] = stamp
-        else:
+        data = self._current.pose_sampled(stamp)
+        if data is not None:
             self._write_states(stamp, data)
 
     def robot_states(self, data: bytes) -> None:
@@ -413,18 +296,14 @@ class Recorder:
         if episode is None:
             self._keep_early(ROBOT_STATES, data)  # before the announcement (a hasty world)
             return
-        index, episode.states_seen = episode.states_seen, episode.states_seen + 1
-        stamp = episode.states_wanted.pop(index, None)
+        stamp = episode.states_arrived(data)
         if stamp is not None:
             self._write_states(stamp, data)
-        elif index >= episode.poses_seen:
-            episode.states_early[index] = bytes(data)  # its pose is on its way
-        # else: the states of a pose that is not a sample (not recorded)
 
     def _write_states(self, stamp: int, data: bytes) -> None:
         self.write(ROBOT_STATES, stamp, data)
-        if stamp == self.episode.setup.start_ns:
-            self.episode.started.add(ROBOT_STATES)
+        if stamp == self._current.setup.start_ns:
+            self._current.started.add(ROBOT_STATES)
 
     def sources(self, data: bytes) -> None:
         """A /world/sources message: recorded at its markers' stamp, as often as the cue map
@@ -441,7 +320,7 @@ class Recorder:
             self.periodic(SOURCES, data, stamp)
 
     def _cleaning(self, stamp: int, data: bytes) -> list[Row]:
-        episode = self.episode
+        episode = self._current
         episode.replica.cleaning(stamp, poses_of(decode(RawMessage(CLEANING, POSE_ARRAY, stamp,
                                                                    data))))
         self.write(CLEANING, stamp, data)
@@ -460,8 +339,8 @@ class Recorder:
             self._write_obstacles()
 
     def _write_obstacles(self) -> None:
-        self.write(OBSTACLES, self.episode.setup.start_ns, self._obstacles)
-        self.episode.obstacles = True
+        self.write(OBSTACLES, self._current.setup.start_ns, cast(bytes, self._obstacles))
+        self._current.obstacles = True
 
     def periodic(self, topic: str, data: bytes, stamp: int | None = None) -> None:
         """Record a /clock, /world/cue_map or /world/sources message (``stamp``: its time,
@@ -496,9 +375,9 @@ class Recorder:
     def _samples(self, rows: list[Row]) -> list[Row]:
         """Record metric rows in the bag; return them."""
         for log_ns, row in rows:
-            for name in self.episode.metrics:
+            for name in self._current.metrics:
                 self.write(metric_topic(name), log_ns, float64_cdr(float(row[name])))
-            self.episode.samples += 1
+            self._current.samples += 1
         return rows
 
     def write(self, topic: str, log_ns: int, data: bytes) -> None:
@@ -509,7 +388,7 @@ class Recorder:
         self.episode.bag.write(topic, log_ns, data)
 
     def _add_topic(self, topic: str) -> None:
-        bag = self.episode.bag
+        bag = self._current.bag
         if not bag.has_topic(topic):
             entry = topic_of(topic)
             if entry is None:

@@ -2,7 +2,7 @@
 
 A SIGKILLed writer leaves an MCAP file without its summary and footer, often ending inside a
 chunk; rosbags and most tools refuse such a file. :func:`recover_bag` reads it front to back
-with :class:`~swarm_metrics.bags.reader.McapScan` in tolerant mode (the mcap library's record
+with :class:`~swarm_metrics.bags.scan.McapScan` in tolerant mode (the mcap library's record
 parsers, each chunk checked against its CRC), keeps every message of every intact chunk, skips
 a damaged chunk whose frame is intact, stops where the framing breaks, and writes what it kept
 through :class:`~swarm_metrics.bags.writer.EpisodeBagWriter`: a normal bag with metadata.yaml,
@@ -25,21 +25,15 @@ import shutil
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import parse_qos
 
+from mona_controller.topics import EPISODE
 from swarm_metrics.bags.losses import LostChunk, lost_chunks, read_index
-from swarm_metrics.bags.reader import (
-    EPISODE,
-    BagError,
-    McapScan,
-    TruncatedBagError,
-    decode_json,
-    find_mcap,
-    read_custom_data,
-)
+from swarm_metrics.bags.reader import decode_json, find_mcap, read_custom_data
+from swarm_metrics.bags.scan import BagError, McapScan, TruncatedBagError
 from swarm_metrics.bags.writer import CUSTOM_PREFIX, EpisodeBagWriter
 from swarm_world.messages.cdr import TYPESTORE
 
@@ -56,7 +50,7 @@ class RecoveryReport:
     size: int  #: bytes of the source file
     good_bytes: int  #: bytes of the source up to the end of the last intact record
     messages: int
-    topics: Counter
+    topics: Counter[str]
     first_ns: int | None
     last_ns: int | None
     skipped_chunks: list[str]
@@ -82,7 +76,7 @@ class RecoveryReport:
         """Whether a message of the source file is missing from the recovered bag."""
         return bool(self.lost) or self.skipped_messages > 0
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """What was lost, for the recovered bag's ``recovered`` entry and for tools."""
         return {'source': str(self.source), 'kept_bytes': self.good_bytes, 'size': self.size,
                 'messages': self.messages, 'skipped_chunks': len(self.skipped_chunks),
@@ -150,7 +144,7 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     if first is None:
         raise BagError(f'{mcap}: nothing to recover: {scan.report.problem or "no messages"} '
                        f'({scan.report.readable()})')
-    topics: Counter = Counter()
+    topics: Counter[str] = Counter()
     skipped, announcement = 0, None
     try:
         with EpisodeBagWriter(target) as bag:
@@ -192,7 +186,7 @@ def recover_bag(source: str | Path, target: str | Path | None = None) -> Recover
     return report
 
 
-def _qos(scan: McapScan, topic: str) -> list:
+def _qos(scan: McapScan, topic: str) -> list[Any]:
     """The offered QoS profiles recorded with ``topic`` (none if unreadable)."""
     for known in scan.topics.values():
         if known.topic == topic and known.offered_qos:

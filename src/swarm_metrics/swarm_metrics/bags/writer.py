@@ -24,6 +24,7 @@ import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 from rosbags.interfaces import (
     Connection,
@@ -120,7 +121,7 @@ class EpisodeBagWriter:
         """False once the bag is closed."""
         return self._writer.storage is not None
 
-    def describe(self, announcement: dict) -> None:
+    def describe(self, announcement: dict[str, Any]) -> None:
         """Keep the episode's seed and every parameter in the bag's metadata (custom_data)."""
         fields = {'episode': announcement.get('episode'), 'seed': announcement.get('seed'),
                   'population': announcement.get('population'),

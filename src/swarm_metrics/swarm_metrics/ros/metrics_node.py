@@ -35,15 +35,16 @@ from rclpy.node import Node
 from rclpy.task import Future
 from std_msgs.msg import Float64, String
 
-from mona_controller import qos
 from mona_controller.contract import RecorderReport, RecorderState
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_plugins, declare_section
+from mona_controller.ros import qos
+from mona_controller.ros.ros_params import declare_plugins, declare_section
+from mona_controller.ros.shutdown import teardown
 from mona_controller.schema import ParameterError, param, validate
-from mona_controller.shutdown import teardown
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
-from swarm_metrics.bags.reader import BagError
-from swarm_metrics.bags.recording import Closed, Recorder, Row
+from swarm_metrics.bags.record import Closed, Row
+from swarm_metrics.bags.recording import Recorder
+from swarm_metrics.bags.scan import BagError
 from swarm_metrics.bags.writer import CHUNK_PERIOD
 from swarm_metrics.metrics import metric_names
 

@@ -154,7 +154,7 @@ def check_extreme(table: pd.DataFrame, p: Mapping[str, Any]) -> CheckResult:
     for at in p['at']:
         found, when = _values(table, p, at, cells)
         pick = min if p['which'] == 'min' else max
-        extreme = pick(found, key=found.get)
+        extreme = pick(found, key=found.__getitem__)
         ok = found[extreme] == found[wanted]  # a tie with the named cell counts as its extreme
         holds &= ok
         parts.append(f't = {when:g} s: {p["which"]} is {_label(*extreme)} '

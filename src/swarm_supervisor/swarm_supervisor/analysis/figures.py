@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import matplotlib
 
@@ -42,11 +43,15 @@ DPI = 130
 BASE_LABEL = 'as the parameter file'
 
 
+#: A design level: a population or a speed.
+Level = TypeVar('Level', int, float)
+
+
 class FigureSkipped(Exception):
     """A figure cannot be drawn from the data at hand (the message says why)."""
 
 
-def nearest(levels: Sequence[float], target: float) -> float:
+def nearest(levels: Sequence[Level], target: float) -> Level:
     """The level closest to ``target`` (the smaller one on a tie)."""
     return min(sorted(levels), key=lambda level: abs(level - target))
 

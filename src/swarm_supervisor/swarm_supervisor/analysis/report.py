@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from mona_controller.schema import ParameterError, from_mapping
-from swarm_metrics.bags.completeness import Finding
+from mona_controller.mappings import from_mapping
+from mona_controller.schema import ParameterError
+from swarm_metrics.bags.checks import Finding
 from swarm_metrics.metrics import METRICS, source_names
 from swarm_supervisor import __version__, outputs, study
 from swarm_supervisor.analysis import beyond_figures, checks, figures, profile, sensitivity

@@ -40,7 +40,8 @@ from pathlib import Path
 from typing import Any
 
 from mona_controller.keys import leaf
-from mona_controller.schema import ParameterError, from_mapping, to_mapping
+from mona_controller.mappings import from_mapping, to_mapping
+from mona_controller.schema import ParameterError
 from swarm_supervisor.analysis.speed_effect import PAPER_RATIO  # table 2's, re-exported
 from swarm_supervisor.config import DESIGN_KEYS, StudyParams, SwarmConfig, load_config
 from swarm_supervisor.yaml_text import parse_yaml

@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from mona_controller.schema import unflatten
+from mona_controller.mappings import unflatten
 from swarm_supervisor import study
 from swarm_supervisor.analysis.claims import Claim, paper_claims
 from swarm_supervisor.analysis.report import analyse, markdown_table

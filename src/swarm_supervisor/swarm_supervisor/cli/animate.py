@@ -9,7 +9,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from swarm_metrics.bags.reader import BagError
+from swarm_metrics.bags.scan import BagError
 from swarm_supervisor.cli.arguments import bounded
 from swarm_supervisor.media.video import AnimateError, animate
 from swarm_supervisor.outputs.location import OutputError, check_location

@@ -80,5 +80,7 @@ def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: str) -> Non
     """Accept ``old`` as a deprecated spelling of the option ``new`` (added already): the same
     value, type and checks, hidden from --help, with a warning when used."""
     action = next(a for a in parser._actions if new in a.option_strings)
-    parser.add_argument(old, dest=action.dest, type=action.type, metavar=action.metavar,
-                        action=_Deprecated, new=new, help=argparse.SUPPRESS)
+    # argparse takes type=None (no conversion), which typeshed's stub does not say
+    parser.add_argument(old, dest=action.dest, type=action.type,  # type: ignore[arg-type]
+                        metavar=action.metavar, action=_Deprecated, new=new,
+                        help=argparse.SUPPRESS)

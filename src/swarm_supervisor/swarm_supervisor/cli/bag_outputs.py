@@ -14,8 +14,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from swarm_metrics.bags.reader import BagError
 from swarm_metrics.bags.recover import SUFFIX
+from swarm_metrics.bags.scan import BagError
 from swarm_supervisor.outputs.guard import RecordExists, check_output, claim_output
 
 ANALYSIS_SUFFIX = '.analysis'  #: ``<bag>.analysis``: the default output folder of a bag

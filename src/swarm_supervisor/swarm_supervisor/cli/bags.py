@@ -20,11 +20,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mona_controller import plugins
-from mona_controller.schema import ParameterError, from_mapping
+from mona_controller.mappings import from_mapping
+from mona_controller.schema import ParameterError
 from swarm_metrics.bags import completeness
-from swarm_metrics.bags.completeness import Finding
-from swarm_metrics.bags.reader import BagError, EpisodeBag, McapScan, find_mcap, read_episode_bag
+from swarm_metrics.bags.checks import Finding, describe, failed_checks
+from swarm_metrics.bags.reader import EpisodeBag, find_mcap, read_episode_bag
 from swarm_metrics.bags.recover import SUFFIX, default_target, recover_bag, with_recovery
+from swarm_metrics.bags.scan import BagError, McapScan
 from swarm_supervisor.cli.arguments import bounded, deprecated_alias
 from swarm_supervisor.cli.bag_outputs import (
     ANALYSIS_SUFFIX,
@@ -57,10 +59,10 @@ class IncompleteBagError(Exception):
     def __init__(self, path: Path, findings: Sequence[Finding], hint: str,
                  note: str | None = None) -> None:
         self.findings = list(findings)
-        checks = completeness.failed_checks(findings)
+        checks = failed_checks(findings)
         plural = 's' if len(checks) > 1 else ''
         super().__init__(f'{path} is incomplete: it fails the {", ".join(checks)} check'
-                         f'{plural}; {hint}:\n{completeness.describe(findings)}'
+                         f'{plural}; {hint}:\n{describe(findings)}'
                          + (f'\n  note: {note}' if note else ''))
 
 
@@ -213,14 +215,14 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
     last = result.rows[-1]
     agreement = ('no online metrics in the bag' if result.online_max_diff is None else
                  f'online metrics agree to {result.online_max_diff:.3g}')
-    checks = ', '.join(completeness.failed_checks(findings))
+    checks = ', '.join(failed_checks(findings))
     text = (f'{out}: N={setup.population} seed={setup.seed}: mean cue {last["mean_cue"]:.2f} '
             f'({last["mean_cue_fraction"]:.1%} of start) after {last["t"]:g} s'
             f'{f" (INCOMPLETE: fails {checks})" if findings else ""}; '
             f'{agreement}; {result.cue_maps_checked} cue maps match the rebuilt cue to '
             f'{result.cue_map_max_diff}')
     if findings:
-        text += f'\n{completeness.describe(findings)}'
+        text += f'\n{describe(findings)}'
     return text + (f'\n  note: {note}' if note else '')
 
 
@@ -288,7 +290,7 @@ def replay(args: argparse.Namespace) -> int:
         (unless ``--allow-incomplete``).
     """
     check_rmw()  # before rclpy is imported: rcl ends the process over an unknown one
-    from swarm_supervisor.system.replay import check_ros_environment, play  # needs ROS
+    from swarm_supervisor.system.ros.replay import check_ros_environment, play  # needs ROS
 
     check_ros_environment()
     try:
@@ -299,10 +301,10 @@ def replay(args: argparse.Namespace) -> int:
     if findings:
         hint = ('replaying it anyway (--allow-incomplete)' if args.allow_incomplete
                 else '--allow-incomplete replays it anyway')
-        error = IncompleteBagError(mcap, findings, hint, note)
+        incomplete = IncompleteBagError(mcap, findings, hint, note)
         if not args.allow_incomplete:
-            return _bad_bag('replay', error, INCOMPLETE)
-        print(f'warning: {error}', file=sys.stderr)
+            return _bad_bag('replay', incomplete, INCOMPLETE)
+        print(f'warning: {incomplete}', file=sys.stderr)
     elif note:
         print(f'note: {note}', file=sys.stderr)
     try:

@@ -123,7 +123,8 @@ def add_options(parser: argparse.ArgumentParser) -> None:
         help="every host's address (this one's too): discover by unicast over the LAN "
              'instead of loopback (writes <out>/fastdds_peers.xml)')
     add('--live', action='store_true',
-        help='also serve the run to Foxglove (the live node, swarm_supervisor.system.live_node)')
+        help='also serve the run to Foxglove (the live node, '
+             'swarm_supervisor.system.ros.live_node)')
     add('--live-port', type=bounded(int, 0, 65535), default=8765, metavar='PORT',
         help='--live: its WebSocket port on localhost (default 8765)')
     add('--linger', type=bounded(float, 0.0, 1e6), metavar='SECONDS',

@@ -6,10 +6,10 @@
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import Any, cast
 
-from mona_controller.keys import renamed_keys
-from mona_controller.schema import moved_keys, parameter_fields, spec_of
+from mona_controller.keys import moved_keys, renamed_keys
+from mona_controller.schema import Spec, parameter_fields, spec_of
 from swarm_supervisor.config import FILE_RELATIVE, SwarmConfig
 
 #: The parameters that name a file.
@@ -76,7 +76,7 @@ def _table(name: str, instance: Any, level: str) -> list[str]:
         if 'sections' in field.metadata:
             named += getattr(instance, field.name)
             continue
-        spec = spec_of(field)
+        spec = cast(Spec, spec_of(field))  # a parameter: sections are above
         default = getattr(instance, field.name)
         key = f'{name}.{field.name}'
         lines.append(f'| `{key}` | {_type(default, spec)} | {_shown(default, spec)} | '

@@ -12,6 +12,7 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import cast
 
 from tqdm import tqdm
 
@@ -148,7 +149,7 @@ def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer |
           f'{result.real_time_factor:.0f}x real time'
           + (f'; bag {extra["bag"]}' if extra else ''))
     if live is not None:
-        linger(live, server, args.linger)
+        linger(live, cast(LiveServer, server), args.linger)  # live: there is a server
     return 0
 
 

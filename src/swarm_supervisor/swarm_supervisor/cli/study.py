@@ -12,7 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from mona_controller import plugins
-from swarm_metrics.bags.completeness import describe
+from swarm_metrics.bags.checks import describe
 from swarm_supervisor import exits, study
 from swarm_supervisor.analysis.claims import all_claims
 from swarm_supervisor.analysis.report import analyse

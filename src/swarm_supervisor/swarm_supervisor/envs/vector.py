@@ -27,40 +27,27 @@ from swarm_metrics.metrics import mean_cue
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.batch import Batch
 from swarm_supervisor.engine.episode import Episode
-from swarm_supervisor.envs.render import (
-    RENDER_MODES,
-    FrameDrawer,
-    check_render_mode,
-    no_mode_warning,
-)
-from swarm_supervisor.envs.spaces import (
-    ACTION_SIZE,
-    EnvError,
-    commands_from_actions,
-    observation_size,
-    observations,
-    reward,
-)
+from swarm_supervisor.envs import render, spaces
 
 
 class MonaSwarmVectorEnv(VectorEnv):
     """``num_envs`` episodes of one config, stepped together (see the module docstring)."""
 
-    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': RENDER_MODES}
+    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': render.RENDER_MODES}
 
     def __init__(self, num_envs: int, config: SwarmConfig | None = None,
                  render_mode: str | None = None) -> None:
         """``config``: each episode (default: the shipped parameter file); ``render_mode``:
         'rgb_array' for :meth:`render`'s frames, None for none."""
-        self.render_mode = check_render_mode(render_mode)
+        self.render_mode = render.check_render_mode(render_mode)
         if num_envs < 1:
-            raise EnvError(f'num_envs must be at least 1, got {num_envs}')
+            raise spaces.EnvError(f'num_envs must be at least 1, got {num_envs}')
         self.config = config if config is not None else load_config()
         self.population = self.config.episode.population
         if self.population < 1:
-            raise EnvError('episode.population must be at least 1 for an environment')
+            raise spaces.EnvError('episode.population must be at least 1 for an environment')
         self.num_envs = num_envs
-        size, top = observation_size(self.config.mona), self.config.mona.max_wheel_command
+        size, top = spaces.observation_size(self.config.mona), self.config.mona.max_wheel_command
         self.single_observation_space = Box(0.0, 1.0, shape=(self.population, size),
                                             dtype=np.float64)
         low = np.tile([-top, -top, 0.0], (self.population, 1))
@@ -78,7 +65,7 @@ class MonaSwarmVectorEnv(VectorEnv):
         self._initial = np.zeros(num_envs)
         self._mean = np.zeros(num_envs)
         self._cleaning = np.zeros((num_envs, self.population), dtype=bool)
-        self._drawer: FrameDrawer | None = None
+        self._drawer: render.FrameDrawer | None = None
 
     def reset(self, *, seed: int | None = None,
               options: dict | None = None) -> tuple[np.ndarray, dict]:
@@ -114,15 +101,16 @@ class MonaSwarmVectorEnv(VectorEnv):
         zeros = np.zeros(self.num_envs)
         falses = np.zeros(self.num_envs, dtype=bool)
         if self.batch is None:
-            raise EnvError('call reset() first')
+            raise spaces.EnvError('call reset() first')
         if self._needs_reset:
             self._round += 1
             return self._start(), zeros, falses, falses.copy(), {}
         actions = np.asarray(actions, dtype=np.float64)
-        expected = (self.num_envs, self.population, ACTION_SIZE)
+        expected = (self.num_envs, self.population, spaces.ACTION_SIZE)
         if actions.shape != expected:
-            raise EnvError(f'actions must have shape {expected}, got {actions.shape}')
-        command = commands_from_actions(actions.reshape(-1, ACTION_SIZE), self.config.mona)
+            raise spaces.EnvError(f'actions must have shape {expected}, got {actions.shape}')
+        command = spaces.commands_from_actions(actions.reshape(-1, spaces.ACTION_SIZE),
+                                               self.config.mona)
         self._cleaning = command.cleaner.reshape(self.num_envs, self.population)
         for _ in range(self.config.world.control_steps):
             for episode, step in self.batch.drive(command):
@@ -133,7 +121,7 @@ class MonaSwarmVectorEnv(VectorEnv):
         rewards = np.empty(self.num_envs)
         for k, episode in enumerate(self.episodes):
             now = mean_cue(episode.world.field.cue)
-            rewards[k] = reward(self._mean[k], now, self._initial[k])
+            rewards[k] = spaces.reward(self._mean[k], now, self._initial[k])
             self._mean[k] = now
         over = self.batch.done
         self._needs_reset = over
@@ -144,12 +132,12 @@ class MonaSwarmVectorEnv(VectorEnv):
         ([H, W, 3] uint8, :mod:`~swarm_supervisor.envs.render`); without a mode: None, and a
         warning."""
         if self.render_mode is None:
-            no_mode_warning()
+            render.no_mode_warning()
             return None
         if self.batch is None:
-            raise EnvError('call reset() before render()')
+            raise spaces.EnvError('call reset() before render()')
         if self._drawer is None:
-            self._drawer = FrameDrawer(self.config)
+            self._drawer = render.FrameDrawer(self.config)
         return tuple(self._drawer.frame(episode, cleaning)
                      for episode, cleaning in zip(self.episodes, self._cleaning))
 
@@ -157,8 +145,8 @@ class MonaSwarmVectorEnv(VectorEnv):
         mona = self.config.mona
         if self.batch is not None and not self.batch.done:  # every episode runs: one pass
             ground, ranges, is_robot = self.batch.sense()
-            return observations(ground, ranges, is_robot, mona).reshape(
+            return spaces.observations(ground, ranges, is_robot, mona).reshape(
                 self.num_envs, self.population, -1)
         # The episodes' last readings (each equals its rows of a batch's sense()).
-        return np.stack([observations(r.ground, r.ranges, r.is_robot, mona)
+        return np.stack([spaces.observations(r.ground, r.ranges, r.is_robot, mona)
                          for r in (episode.world.sense() for episode in self.episodes)])

@@ -38,7 +38,8 @@ from typing import Any
 
 import yaml
 
-from mona_controller.schema import ParameterError, from_mapping
+from mona_controller.mappings import from_mapping
+from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.runner import run_batch
 from swarm_supervisor.evolution.fitness import episode_fitness, run_scores

@@ -7,8 +7,8 @@ the server's time are sim time. Two feeders use it:
 
 * :class:`LiveView`, an observer of the embedded runner (``mona-swarm run --live``); it also
   paces the episode to a multiple of real time on request (``--pace``);
-* :mod:`swarm_supervisor.system.live_node`, a node of the node system that forwards the recorded
-  topics (``scripts/swarm.sh --live``).
+* :mod:`swarm_supervisor.system.ros.live_node`, a node of the node system that forwards the
+  recorded topics (``scripts/swarm.sh --live``).
 
 Watching must not slow the episode down: messages are made only for channels a client
 subscribes to (none connected: nothing is built), and at most ``rate`` times per wall second
@@ -27,13 +27,16 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from typing import cast
 
 import foxglove
 from foxglove import Channel, Schema
 from foxglove.websocket import Capability
 
 from mona_controller import topics
-from mona_controller.contract import (
+from mona_controller.contract import Announcement, Poses, WorldState, WorldStatus
+from mona_controller.controllers import states_of
+from mona_controller.topics import (
     CLOCK,
     CUE_GRID,
     CUE_MAP,
@@ -44,12 +47,8 @@ from mona_controller.contract import (
     ROBOT_STATES,
     SOURCES,
     STATUS,
-    Announcement,
-    WorldState,
-    WorldStatus,
     metric_topic,
 )
-from mona_controller.controllers import states_of
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
@@ -225,7 +224,7 @@ class LiveView(EpisodeObserver):
         self.announcement = string_cdr(Announcement(
             0, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
-            poses=tuple(map(tuple, episode.initial_poses.tolist())),
+            poses=cast(Poses, tuple(map(tuple, episode.initial_poses.tolist()))),
             parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
             states=states_of(config.controller.kind)).to_json())
         self.obstacles = obstacles_cdr(episode.world.arena)

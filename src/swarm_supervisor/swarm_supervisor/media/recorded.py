@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mona_controller.contract import (
+from mona_controller.topics import (
     CLEANING,
     CUE_MAP,
     EPISODE,
@@ -19,7 +19,8 @@ from mona_controller.contract import (
     STATUS,
 )
 from swarm_metrics.bags.analysis import AnnouncementError, EpisodeSetup
-from swarm_metrics.bags.reader import McapScan, cue_of, decode, decode_json, find_mcap, poses_of
+from swarm_metrics.bags.reader import cue_of, decode, decode_json, find_mcap, poses_of
+from swarm_metrics.bags.scan import McapScan
 from swarm_world.arena import Obstacle
 from swarm_world.messages.cdr import states_from_cdr
 from swarm_world.messages.markers import obstacles_from_markers

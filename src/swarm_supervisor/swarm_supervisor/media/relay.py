@@ -19,15 +19,17 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from typing import cast
 
 import websockets
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.typing import Subprotocol
 
 SDK_SUBPROTOCOL = 'foxglove.sdk.v1'
 LEGACY_SUBPROTOCOL = 'foxglove.websocket.v1'
 #: What the relay accepts, in order of preference.
-SUBPROTOCOLS = (SDK_SUBPROTOCOL, LEGACY_SUBPROTOCOL)
+SUBPROTOCOLS = (Subprotocol(SDK_SUBPROTOCOL), Subprotocol(LEGACY_SUBPROTOCOL))
 #: Wall seconds to wait for the relay to start or stop.
 TIMEOUT = 10.0
 #: Wall seconds a connection's closing handshake may take before it is dropped: a client that
@@ -81,10 +83,10 @@ class Relay:
 
     async def _handle(self, client: ServerConnection) -> None:
         """One client: its own connection to the SDK server, frames copied both ways."""
-        self._clients.add(asyncio.current_task())
+        self._clients.add(cast(asyncio.Task[None], asyncio.current_task()))
         try:
-            async with connect(self.upstream, subprotocols=[SDK_SUBPROTOCOL], max_size=None,
-                               compression=None, open_timeout=TIMEOUT,
+            async with connect(self.upstream, subprotocols=[Subprotocol(SDK_SUBPROTOCOL)],
+                               max_size=None, compression=None, open_timeout=TIMEOUT,
                                close_timeout=CLOSE_TIMEOUT) as sdk:
                 copies = [asyncio.create_task(_copy(client, sdk)),
                           asyncio.create_task(_copy(sdk, client))]

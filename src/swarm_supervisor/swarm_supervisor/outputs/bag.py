@@ -18,22 +18,17 @@ import dataclasses
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from rosbags.interfaces import Qos
 
 from mona_controller import topics
-from mona_controller.contract import (
-    CLEANING,
-    CLOCK,
-    CUE_MAP,
-    POSES,
-    Announcement,
-    WorldState,
-    WorldStatus,
-)
+from mona_controller.contract import Announcement, Poses, WorldState, WorldStatus
 from mona_controller.controllers import states_of
-from swarm_metrics.bags.recording import Closed, Recorder
+from mona_controller.topics import CLEANING, CLOCK, CUE_MAP, POSES
+from swarm_metrics.bags.record import Closed
+from swarm_metrics.bags.recording import Recorder
 from swarm_metrics.bags.writer import CHUNK_PERIOD, bag_topics
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.config import SwarmConfig
@@ -148,7 +143,7 @@ class BagRecorder(EpisodeObserver):
         announcement = Announcement(
             self.episode_number, seed=episode.seed, population=config.episode.population,
             duration=config.episode.duration, start_ns=self.start_ns,
-            poses=tuple(map(tuple, episode.initial_poses.tolist())),
+            poses=cast(Poses, tuple(map(tuple, episode.initial_poses.tolist()))),
             parameters=config.to_dict(), plugins=tuple(config.plugin_records()),
             states=states_of(config.controller.kind))
         try:

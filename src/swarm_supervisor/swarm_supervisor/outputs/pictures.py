@@ -49,7 +49,7 @@ def draw_cue_map(ax, cue: np.ndarray, poses: np.ndarray | None, arena_side: floa
         tip = poses[:, :2] + body_radius * np.column_stack((np.cos(poses[:, 2]),
                                                             np.sin(poses[:, 2])))
         # One collection, not a line per robot: 10,000 Line2D artists take a minute to draw.
-        ax.add_collection(LineCollection(np.stack((poses[:, :2], tip), axis=1),
+        ax.add_collection(LineCollection(np.stack((poses[:, :2], tip), axis=1),  # type: ignore[arg-type]
                                          colors='red', linewidths=0.6, capstyle='projecting'))
     ax.set_xlim(0, arena_side)
     ax.set_ylim(0, arena_side)

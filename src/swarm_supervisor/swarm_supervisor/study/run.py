@@ -20,7 +20,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from mona_controller.schema import leaves
+from mona_controller.mappings import leaves
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, current_keys, mapping_value, write_ros_yaml
 from swarm_supervisor.study.errors import StudyError
@@ -227,7 +227,7 @@ def render_videos(out: Path, specs: Sequence[EpisodeSpec], progress: bool | None
     ``out/videos/<episode>.mp4`` (an existing one is kept)."""
     from swarm_supervisor.media.video import animate  # video libraries only when asked
 
-    first = {}
+    first: dict[tuple[Any, ...], Any] = {}
     for spec in specs:
         first.setdefault((spec.population, spec.speed, spec.levels), spec)
     paths = []

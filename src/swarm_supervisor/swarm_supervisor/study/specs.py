@@ -38,13 +38,16 @@ class EpisodeSpec:
             f'_{key}={_level_text(value)}' for key, value in self.named)
 
 
+#: A design cell: (its levels, the levels it names), each a tuple of (key, value).
+Cell = tuple[tuple[tuple[str, Any], ...], tuple[tuple[str, Any], ...]]
+
+
 def _level_text(value: Any) -> str:
     """A factor level in a folder name: the shortest exact text of a number."""
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def factor_cells(config: SwarmConfig) -> list[tuple[tuple[tuple[str, Any], ...],
-                                                   tuple[tuple[str, Any], ...]]]:
+def factor_cells(config: SwarmConfig) -> list[Cell]:
     """The combinations of extra factor levels: (levels, named levels) of each.
 
     Crossed: every combination. One-at-a-time: the parameter file's values, then each level
@@ -55,9 +58,9 @@ def factor_cells(config: SwarmConfig) -> list[tuple[tuple[tuple[str, Any], ...],
         return [((), ())]
     base = tuple((key, parameter_value(config, key)) for key in study.factor_names)
     if study.factor_design == 'crossed':
-        cells = itertools.product(*([(key, v) for v in values] for key, values in study.factors))
-        return [(cell, cell) for cell in map(tuple, cells)]
-    cells = [(base, ())]
+        crossed = itertools.product(*([(key, v) for v in values] for key, values in study.factors))
+        return [(cell, cell) for cell in map(tuple, crossed)]
+    cells: list[Cell] = [(base, ())]
     for index, (key, values) in enumerate(study.factors):
         for value in values:
             if value != base[index][1]:

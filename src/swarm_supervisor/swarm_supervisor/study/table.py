@@ -21,9 +21,9 @@ from typing import Any
 import pandas as pd
 
 from mona_controller import plugins
+from mona_controller.mappings import leaves
 from mona_controller.plugins import Plugin
-from mona_controller.schema import leaves
-from swarm_metrics.bags.completeness import Finding, check_rows
+from swarm_metrics.bags.checks import Finding, check_rows
 from swarm_metrics.metrics import COLUMNS, is_source_column
 from swarm_supervisor import outputs
 from swarm_supervisor.config import DESIGN_KEYS, SwarmConfig, current_keys, mapping_value
@@ -183,7 +183,9 @@ def tidy_table(folders: Sequence[Path], factors: Sequence[str] | None = None) ->
     """
     folders = [Path(folder) for folder in folders]
     factors = list(varying_parameters(folders) if factors is None else factors)
-    frames, seen, shared = [], {}, []
+    frames: list[pd.DataFrame] = []
+    seen: dict[str, Path] = {}
+    shared: list[Any] = []
     for folder in folders:
         key = episode_key(folder, factors)
         identity = json.dumps(list(key.values()))

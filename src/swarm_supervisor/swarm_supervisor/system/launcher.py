@@ -24,6 +24,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import cast
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor import exits
@@ -121,7 +122,7 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
                                             *ros_args]
     if getattr(options, 'live', False):  # before the supervisor: it sees the whole episode
         linger = getattr(options, 'linger', None)
-        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.live_node',
+        commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.ros.live_node',
                             '--ros-args', '-p', f'port:={options.live_port}',
                             '-p', f'linger:={-1.0 if linger is None else float(linger)}']
     commands['supervisor'] = [executables['supervisor'], *ros_args,
@@ -348,7 +349,7 @@ def launch(options: argparse.Namespace) -> int:
 
     if options.peers:
         profile = str(out / PEERS_PROFILE)
-        Path(profile).write_text(peers_profile(address, options.peers))
+        Path(profile).write_text(peers_profile(cast(str, address), options.peers))
     env = ros_environment(domain, Path(profile), log_dir=out / 'logs' / 'ros')
     write_ros_env(out / 'ros_env.sh', env)
     run = Run(out, env, domain, (lock.fileno(),) if lock else (), options.timeout)

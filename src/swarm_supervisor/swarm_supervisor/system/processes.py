@@ -358,7 +358,8 @@ def groups_shm(pgids: Sequence[int]) -> set[str]:
     return mapped_shm([pid for pids in _groups(set(pgids)).values() for pid in pids])
 
 
-def remove_shm_leftovers(domain: int, seen: set[str] = frozenset()) -> list[str]:
+def remove_shm_leftovers(domain: int, seen: set[str] | frozenset[str] = frozenset()
+                         ) -> list[str]:
     """Remove the Fast DDS files of a finished run that no live process uses: the port files
     of ``domain`` and the files its processes were ``seen`` mapping. Returns their names."""
     leftovers = sorted(((domain_shm_files(domain) | seen) & shm_files()) - mapped_shm())

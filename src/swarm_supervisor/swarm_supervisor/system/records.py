@@ -20,7 +20,8 @@ def incomplete_records(out: Path) -> list[str]:
     completeness verdict (naming the bag, the episode and every finding), or that
     ``run.json`` is missing or lists an episode without a record. Empty: all complete.
     """
-    from swarm_metrics.bags.completeness import check_bag_file, describe, failed_checks
+    from swarm_metrics.bags.checks import describe, failed_checks
+    from swarm_metrics.bags.completeness import check_bag_file
 
     try:
         episodes = json.loads((out / RUN_FILE).read_text())['episodes']

@@ -24,7 +24,7 @@ from __future__ import annotations
 import ctypes
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import yaml
 
@@ -61,7 +61,7 @@ def _whole(text: str, parse: Any, *base: int) -> Any:
     value = parse(buffer, ctypes.byref(end), *base)
     if ctypes.get_errno():
         return None
-    used = ctypes.cast(end, ctypes.c_void_p).value - ctypes.addressof(buffer)
+    used = cast(int, ctypes.cast(end, ctypes.c_void_p).value) - ctypes.addressof(buffer)
     return value if used == len(data) else None
 
 

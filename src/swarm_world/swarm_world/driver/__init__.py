@@ -4,7 +4,8 @@ Pure cores (no ROS): :mod:`.params` (the driver's options), :mod:`.calibration` 
 to a range and back), :mod:`.wheels` (cmd_vel to the link's wheel commands, PWM back to
 speed), :mod:`.tracked` (:class:`~.tracked.TrackedWorld`: the world's cue and sensors at
 tracked poses), :mod:`.fleet` (each robot's link: telemetry, commands, faults),
-:mod:`.emulation` (emulated robots: firmwares in simavr, their physics, links and tracker).
+:mod:`.emulation` (emulated robots: their physics, links and tracker) with :mod:`.firmware`
+(their firmwares built and run in simavr).
 The adapters are :mod:`swarm_world.ros.driver_node` and ``driver_hil``
 (:mod:`swarm_world.ros.hil`). docs/driver.md.
 """
@@ -17,7 +18,8 @@ _WHERE = {
     **dict.fromkeys(('pwm_to_permille', 'to_permille', 'twist_to_wheels'), 'wheels'),
     'TrackedWorld': 'tracked',
     'Fleet': 'fleet',
-    **dict.fromkeys(('EmulatedArena', 'Firmware', 'build_images'), 'emulation'),
+    'EmulatedArena': 'emulation',
+    **dict.fromkeys(('Firmware', 'build_images'), 'firmware'),
 }
 __all__ = sorted(_WHERE)
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -64,7 +64,7 @@ class IrCalibration:
     def to_ranges(self, raw: Sequence[int] | np.ndarray) -> np.ndarray:
         """Ranges (m, float32; inf = nothing in range) of raw ADC readings."""
         raw = np.asarray(raw, dtype=np.float64)
-        ranges = np.interp(raw, self.adcs, self.ranges).astype(np.float32)
+        ranges: np.ndarray = np.interp(raw, self.adcs, self.ranges).astype(np.float32)
         ranges[raw >= self.far] = np.inf
         return ranges
 
@@ -74,7 +74,7 @@ class IrCalibration:
         ranges = np.asarray(ranges, dtype=np.float64)
         beyond = ~np.isfinite(ranges) | (ranges >= self.ranges[-1])
         clipped = np.where(beyond, self.ranges[-1], np.maximum(ranges, 0.0))
-        adc = np.rint(np.interp(clipped, self.ranges, self.adcs)).astype(np.int64)
+        adc: np.ndarray = np.rint(np.interp(clipped, self.ranges, self.adcs)).astype(np.int64)
         adc = np.minimum(adc, round(self.far) - 1)  # in range reads below the far value
         adc[beyond] = ADC_MAX
         return adc

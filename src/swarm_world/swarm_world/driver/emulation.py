@@ -2,46 +2,43 @@
 
 Each robot's firmware image (the very image one would flash, ``make -C firmware/mona
 ROBOT_ID=i``) runs in its own ``monasim`` process (firmware/sim) paced to the wall clock
-(:class:`Firmware`); :class:`EmulatedArena` moves the robots with the world's own physics from the
-wheel outputs (PWM and direction registers through the deadband map), feeds each firmware its
-IR (the world's beams at the true poses, through the calibration, as ADC voltages) and its
-encoder edges, carries the link over UDP (one port per robot, with settable latency, loss and
-duplication: :class:`DelayLine`) and makes the tracker's poses (with settable latency and
-noise). Faults are scheduled (:class:`Window`): a reboot, a silent radio, a tracker dropout,
-a battery sag. The command itself, which starts the driver node and publishes the tracker, is
-:mod:`swarm_world.ros.hil`.
+(:class:`~swarm_world.driver.firmware.Firmware`, with its build); :class:`EmulatedArena` moves
+the robots with the world's own physics from the wheel outputs (PWM and direction registers
+through the deadband map), feeds each firmware its IR (the world's beams at the true poses,
+through the calibration, as ADC voltages) and its encoder edges, carries the link over UDP
+(one port per robot, with settable latency, loss and duplication: :class:`DelayLine`) and
+makes the tracker's poses (with settable latency and noise). Faults are scheduled
+(:class:`Window`): a reboot, a silent radio, a tracker dropout, a battery sag. The command
+itself, which starts the driver node and publishes the tracker, is :mod:`swarm_world.ros.hil`.
 """
 
 from __future__ import annotations
 
 import argparse
-import fcntl
 import heapq
 import math
 import random
-import shutil
 import socket
-import subprocess
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
 
-from mona_controller.link.frame import START, size
+from mona_controller.keys import moved_keys, relocate
+from mona_controller.mappings import from_mapping
 from mona_controller.mona import MonaParams
-from mona_controller.schema import ParameterError, from_mapping, moved_keys, relocate
+from mona_controller.schema import ParameterError
 from swarm_world.driver.calibration import IrCalibration
+from swarm_world.driver.firmware import Firmware, HilError
 from swarm_world.driver.params import DriverParams
 from swarm_world.driver.wheels import pwm_to_permille
 from swarm_world.params import WorldParams
 from swarm_world.physics import Physics
-from swarm_world.sensing.sensors import proximity
+from swarm_world.sensing.ir import proximity
 
-REPO = Path(__file__).resolve().parents[4]
-FIRMWARE = REPO / 'firmware'
 #: The ADC channel of each IR sensor, right to left (docs/link.md, "Pins").
 IR_CHANNELS = (3, 2, 1, 0, 7)
 #: Simulated microseconds per emulator tick.
@@ -55,14 +52,6 @@ BATTERY_MV = 3900
 #: Encoder edges per metre of wheel travel: MonaMk2's 980 ticks per revolution (docs/link.md)
 #: on a 32 mm wheel (a guess; unverified on the classic Mona).
 EDGES_PER_METRE = 980 / (math.pi * 0.032)
-
-
-class HilError(Exception):
-    """A setting or a missing tool that stops the harness before it starts (exit 2)."""
-
-
-class FirmwareError(Exception):
-    """A firmware process that ended or crashed while the harness ran (exit 1)."""
 
 
 @dataclass(order=True)
@@ -94,7 +83,7 @@ class DelayLine:
             self.count += 1
             heapq.heappush(self.queue, Delayed(now + self.latency, self.count, data))
 
-    def due(self, now: float) -> list:
+    def due(self, now: float) -> list[Any]:
         """What arrives by ``now``, in order."""
         out = []
         while self.queue and self.queue[0].due <= now:
@@ -132,101 +121,6 @@ def parse_window(text: str) -> Window:
     except ValueError:
         raise argparse.ArgumentTypeError(f'{text!r}: expected ROBOT@START[+LENGTH], e.g. '
                                          '1@10+3') from None
-
-
-class Firmware:
-    """One robot's firmware image in a ``monasim`` process, run in simulated time."""
-
-    def __init__(self, monasim: Path, image: Path, log: Path) -> None:
-        self.process = subprocess.Popen([str(monasim), str(image)], stdin=subprocess.PIPE,
-                                        stdout=subprocess.PIPE, stderr=log.open('w'),
-                                        text=True, bufsize=1)
-        self.pwm = (0, 0, 0, 0, 0)  # pwm_l, dir_l, pwm_r, dir_r, cleaner
-        self.tx = bytearray()
-        self.pending: list[str] = []
-
-    def send(self, commands: list[str]) -> None:
-        """Send the commands (the process runs them while the others run theirs)."""
-        assert self.process.stdin
-        self.process.stdin.write(''.join(f'{c}\n' for c in commands))
-        self.process.stdin.flush()
-        self.pending = commands
-
-    def collect(self) -> None:
-        """Read the events up to the end (``T``) of each command sent."""
-        assert self.process.stdout
-        commands = self.pending
-        done = 0
-        while done < len(commands):
-            line = self.process.stdout.readline()
-            if not line:
-                raise FirmwareError('monasim ended: ' + ' '.join(commands[:3]))
-            kind = line[0]
-            if kind == 'T':
-                done += 1
-            elif kind == 'U':
-                self.tx.append(int(line.split()[2], 16))
-            elif kind == 'W':
-                fields = line.split()
-                self.pwm = tuple(int(v) for v in fields[2:7])  # type: ignore[assignment]
-            elif kind == 'E':
-                raise FirmwareError(f'the firmware crashed: {line.strip()}')
-
-    def frames(self) -> list[bytes]:
-        """The whole frames the firmware has transmitted so far (bytes between are dropped)."""
-        out: list[bytes] = []
-        while True:
-            start = self.tx.find(START)
-            if start < 0:
-                self.tx.clear()
-                return out
-            del self.tx[:start]
-            total = size(self.tx)
-            if total is None or len(self.tx) < total:
-                return out
-            out.append(bytes(self.tx[:total]))
-            del self.tx[:total]
-
-    def stop(self) -> None:
-        """End the process."""
-        try:
-            assert self.process.stdin
-            self.process.stdin.write('quit\n')
-            self.process.stdin.flush()
-            self.process.wait(timeout=2)
-        except (OSError, subprocess.TimeoutExpired, ValueError):
-            self.process.kill()
-            self.process.wait()
-
-
-def build_images(robots: int, folder: Path) -> tuple[list[Path], Path]:
-    """Each robot's firmware (ROBOT_ID = i) with firmware/mona's own Makefile, and monasim."""
-    missing = [tool for tool in ('avr-gcc', 'make', 'cc') if shutil.which(tool) is None]
-    if missing or not Path('/usr/include/simavr/sim_avr.h').exists():
-        raise HilError(f'the firmware tools are missing ({", ".join(missing) or "simavr"}): '
-                       'run make firmware-tools')
-    images = []
-    for robot in range(robots):
-        work = folder / f'robot_{robot}'
-        work.mkdir(parents=True, exist_ok=True)
-        for name in ('src', 'Makefile'):  # the tree's sources, built out of the tree
-            link = work / name
-            if not link.exists():
-                link.symlink_to(FIRMWARE / 'mona' / name)
-        make(work, f'ROBOT_ID={robot}', 'mona.elf')
-        images.append(work / 'mona.elf')
-    make(FIRMWARE / 'sim')
-    return images, FIRMWARE / 'sim' / 'monasim'
-
-
-def make(folder: Path, *targets: str) -> None:
-    """``make -s -C folder targets``, one build at a time on this machine: runs started
-    together (parallel tests) build firmware/sim's one monasim, and a half-written one fails
-    to start."""
-    with open(Path(tempfile.gettempdir()) / 'mona-firmware-build.lock', 'w') as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        subprocess.run(['make', '-s', '-C', str(folder), *targets], check=True,
-                       capture_output=True, timeout=120)
 
 
 def load_sections(path: Path) -> tuple[WorldParams, MonaParams, DriverParams]:

@@ -12,6 +12,7 @@ robot (:meth:`Fleet.counters`), so the record says what happened (docs/reliabili
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -140,7 +141,7 @@ class Fleet:
         events, self.events = self.events, []
         return events
 
-    def counters(self) -> list[dict]:
+    def counters(self) -> list[dict[str, Any]]:
         """Per robot: the link's frame counts and the faults, for the record."""
         rows = []
         for link in self.robots:

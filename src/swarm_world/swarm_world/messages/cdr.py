@@ -44,12 +44,12 @@ def serialize(msg: object, msgtype: str) -> bytes:
     return bytes(TYPESTORE.serialize_cdr(msg, msgtype))
 
 
-def _time(ns: int):
+def _time(ns: int) -> Any:
     return TYPES['builtin_interfaces/msg/Time'](sec=ns // 1_000_000_000,
                                                 nanosec=ns % 1_000_000_000)
 
 
-def _header(ns: int, frame: str = WORLD_FRAME):
+def _header(ns: int, frame: str = WORLD_FRAME) -> Any:
     return TYPES['std_msgs/msg/Header'](stamp=_time(ns), frame_id=frame)
 
 
@@ -65,7 +65,7 @@ def string_cdr(text: str) -> bytes:
     return CDR_LE + struct.pack('<I', len(name)) + name
 
 
-def json_cdr(document: dict) -> bytes:
+def json_cdr(document: dict[str, Any]) -> bytes:
     """A JSON document as std_msgs/String (the announcement, the status)."""
     return string_cdr(json.dumps(document))
 
@@ -137,7 +137,32 @@ def states_from_cdr(data: bytes) -> np.ndarray:
     return np.asarray(message.data, dtype=np.uint8)
 
 
-def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_radius: float):
+def stamp_ns(data: bytes) -> int:
+    """The stamp of a serialized message whose first field is a Time (a Header, a Clock).
+
+    Reads the CDR bytes directly (encapsulation, then sec int32 and nanosec uint32), so a
+    recorded message needs no deserialization.
+    """
+    sec: int
+    nanosec: int
+    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+def markers_stamp_ns(data: bytes) -> int | None:
+    """The stamp of a serialized MarkerArray's first marker (None: no markers)."""
+    big = data[1] != 1
+    (count,) = struct.unpack_from('>I' if big else '<I', data, 4)
+    if count == 0:
+        return None
+    sec: int
+    nanosec: int
+    sec, nanosec = struct.unpack_from('>iI' if big else '<iI', data, 8)
+    return sec * 1_000_000_000 + nanosec
+
+
+def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple[float, ...],
+            body_radius: float) -> Any:
     """One robot's cylinder marker."""
     height = arena_markers.ROBOT_HEIGHT
     return _any_marker(stamp_ns, 'robots', robot, arena_markers.CYLINDER, (x, y, height / 2),
@@ -146,7 +171,8 @@ def _marker(stamp_ns: int, robot: int, x: float, y: float, colour: tuple, body_r
 
 def _any_marker(stamp_ns: int, namespace: str, marker_id: int, kind: int,
                 position: tuple[float, float, float], scale: tuple[float, float, float],
-                colour: tuple, points: tuple = (), text: str = ''):
+                colour: tuple[float, ...], points: tuple[Any, ...] = (),
+                text: str = '') -> Any:
     """A visualization_msgs/Marker (action ADD, identity orientation, frame world)."""
     point, quaternion = TYPES['geometry_msgs/msg/Point'], TYPES['geometry_msgs/msg/Quaternion']
     x, y, z = position
@@ -186,7 +212,7 @@ def sources_cdr(names: tuple[str, ...], positions: np.ndarray, ns: int) -> bytes
 
 
 def _marker_array_cdr(markers: tuple[arena_markers.MarkerData, ...], namespace: str,
-                      colour: tuple, ns: int) -> bytes:
+                      colour: tuple[float, ...], ns: int) -> bytes:
     array = [_any_marker(ns, namespace, data.id, data.type, data.position, data.scale, colour,
                          data.points, data.text) for data in markers]
     return serialize(TYPES[MARKER_ARRAY](markers=array), MARKER_ARRAY)

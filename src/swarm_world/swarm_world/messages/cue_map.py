@@ -8,7 +8,8 @@ import numpy as np
 
 def cue_mono8(cue: np.ndarray) -> np.ndarray:
     """The cue raster as uint8, rounded as the ground sensors read it (row 0 at y = 0)."""
-    return np.clip(np.rint(cue), 0, 255).astype(np.uint8)
+    mono8: np.ndarray = np.clip(np.rint(cue), 0, 255).astype(np.uint8)
+    return mono8
 
 
 def cue_percent(cue: np.ndarray) -> np.ndarray:

@@ -23,27 +23,25 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseArray
-from rclpy.executors import ExternalShutdownException
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
-from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError, WorldState
 from mona_controller.link.frame import Decoder
 from mona_controller.link.transport import SerialTransport, Transport, UdpTransport
 from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_section
+from mona_controller.ros import qos
+from mona_controller.ros.ros_params import declare_section
 from mona_controller.schema import ParameterError
-from mona_controller.shutdown import deliver, teardown
 from swarm_world.driver.fleet import Fleet
 from swarm_world.driver.params import UDP_PREFIX, DriverParams, udp_address
 from swarm_world.driver.tracked import TrackedWorld
 from swarm_world.driver.wheels import to_permille, twist_to_wheels
 from swarm_world.frames import yaw_from_quaternion
 from swarm_world.params import WorldNodeParams, WorldParams
-from swarm_world.ros.world_node import WorldNode
+from swarm_world.ros.world_node import WorldNode, run
 from swarm_world.sensing.params import SensingParams
 
 DRIVER_STATUS = '/driver/status'
@@ -254,8 +252,8 @@ class DriverNode(WorldNode):
         partial.write_text(json.dumps(self.driver_record(), indent=1))
         os.replace(partial, folder / DRIVER_FILE)
 
-    def close_links(self) -> None:
-        """Stop every robot and close the ports."""
+    def close(self) -> None:
+        """Stop every robot and close the ports (before the node's teardown)."""
         if self.world.population:
             self.send_commands(stop=True)
         self.close_ports()
@@ -273,23 +271,7 @@ def main(args: Sequence[str] | None = None) -> int:
         '': WorldNodeParams, 'world.': WorldParams, 'mona.': MonaParams,
         'sensing.': SensingParams, 'driver.': DriverParams}), argv[1:])
     rclpy.init(args=argv)
-    node = None
-    status = 1
-    try:
-        node = DriverNode()
-        rclpy.spin_until_future_complete(node, node.finished)
-        status = node.exit_status
-        deliver([node])  # the final status and state reach every reader, also one that lost them
-    except (KeyboardInterrupt, ExternalShutdownException):
-        status = 0
-    except ParameterError as error:
-        rclpy.logging.get_logger('driver').fatal(f'bad parameter: {error}')
-        status = 2
-    finally:
-        if node is not None:
-            node.close_links()
-        teardown([node], exit_status=status)
-    return status
+    return run(DriverNode, 'driver')
 
 
 if __name__ == '__main__':

@@ -29,14 +29,11 @@ from pathlib import Path
 from swarm_world.driver.emulation import (
     TICK_US,
     EmulatedArena,
-    Firmware,
-    FirmwareError,
-    HilError,
-    build_images,
     load_sections,
     parse_battery,
     parse_window,
 )
+from swarm_world.driver.firmware import Firmware, FirmwareError, HilError, build_images
 from swarm_world.driver.wheels import DEADBAND
 
 USAGE_ERROR = 2

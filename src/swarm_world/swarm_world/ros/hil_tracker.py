@@ -13,8 +13,8 @@ from geometry_msgs.msg import PoseArray
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
 
-from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
+from mona_controller.ros import qos
 from swarm_world.ros.driver_node import TRACKER_QOS
 from swarm_world.ros.world_messages import PoseArrayFiller
 

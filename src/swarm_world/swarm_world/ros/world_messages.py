@@ -1,6 +1,6 @@
 """Conversions of the world's own topics (docs/interfaces.md, "World"): poses, cue map and
 grid, robot, obstacle and source markers, the robots' states. The per-robot messages are
-:mod:`mona_controller.messages`.
+:mod:`mona_controller.ros.messages`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from std_msgs.msg import ColorRGBA, UInt8MultiArray
 from visualization_msgs.msg import Marker, MarkerArray
 
 from mona_controller.contract import WORLD_FRAME
-from mona_controller.messages import ns_to_stamp, set_stamp
+from mona_controller.ros.messages import ns_to_stamp, set_stamp
 from swarm_world.arena import Arena
 from swarm_world.frames import poses_from_rows, yaw_to_quaternion
 from swarm_world.messages import markers as arena_markers

@@ -27,7 +27,7 @@ _DOUBLE = 1.0 / 9007199254740992.0  # 2^-53
 
 
 @numba.njit(cache=True)
-def _mix(x):  # pragma: no cover - jitted
+def _mix(x: np.uint64) -> np.uint64:  # pragma: no cover - jitted
     """The SplitMix64 finaliser: a bijection of uint64 that scatters every input bit."""
     x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
@@ -35,7 +35,8 @@ def _mix(x):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _uniform(seed, stream, robot, step, index):  # pragma: no cover - jitted
+def _uniform(seed: int, stream: int, robot: int, step: int,
+             index: int) -> float:  # pragma: no cover - jitted
     """A uniform double in [0, 1) for one key."""
     h = _mix(np.uint64(seed) + _GOLDEN)
     h = _mix(h ^ (np.uint64(stream) + _GOLDEN))
@@ -46,7 +47,8 @@ def _uniform(seed, stream, robot, step, index):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _fill_uniform(seed, stream, robots, step, out):  # pragma: no cover - jitted
+def _fill_uniform(seed: int, stream: int, robots: np.ndarray, step: int,
+                  out: np.ndarray) -> np.ndarray:  # pragma: no cover - jitted
     for i in range(out.shape[0]):
         for k in range(out.shape[1]):
             out[i, k] = _uniform(seed, stream, robots[i], step, k)
@@ -54,7 +56,8 @@ def _fill_uniform(seed, stream, robots, step, out):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _fill_normal(seed, stream, robots, step, out):  # pragma: no cover - jitted
+def _fill_normal(seed: int, stream: int, robots: np.ndarray, step: int,
+                 out: np.ndarray) -> np.ndarray:  # pragma: no cover - jitted
     """Standard normals by Box-Muller, each from the uniforms of indices 2k and 2k + 1."""
     for i in range(out.shape[0]):
         for k in range(out.shape[1]):

@@ -31,7 +31,8 @@ def lookup(table: tuple[float, ...], x: np.ndarray) -> np.ndarray:
     """A Webots lookup table ([input, output, input, output, ...], inputs increasing) at
     ``x``: linear between its rows, its first or last output beyond them."""
     inputs, outputs = np.asarray(table[0::2]), np.asarray(table[1::2])
-    return np.interp(x, inputs, outputs)
+    read: np.ndarray = np.interp(x, inputs, outputs)
+    return read
 
 
 def webots_reading(cue: np.ndarray, sensing: SensingParams) -> np.ndarray:

@@ -1,142 +1,39 @@
-"""Mona sensors on the simulated world: two ground sensors and the front IR proximity ring.
+"""The front IR proximity ring of a simulated Mona: what each beam sees, and how far.
 
-Readings are produced in the form a real Mona (and the ROS messages) carry them: ground
-readings as uint8 0..255, IR ranges as float32 metres from the body edge (inf = nothing).
-
-The two kernels are compiled with numba: a plain loop over robots, beams and neighbours reads
-as the geometry it implements and runs in microseconds, where the vectorised numpy version
-spent most of a step on call overhead. The IR kernel finds a robot's neighbours in a uniform
-grid of cells (cell lists), so a swarm of 10,000 costs what 10,000 robots alone do, not the
-10,000^2 pairs. A beam sees the nearest of the walls, the arena's obstacles
-(:mod:`swarm_world.arena`, packed in flat arrays) and the other robots, with one ray test per
-kind of shape (:func:`ray_walls`, :func:`ray_disc`, :func:`ray_segment`); an arena without
-obstacles pays one test per robot for them. Both runners use these same functions, and
-:mod:`swarm_world.reference` holds plain-Python references of both.
+Readings are produced in the form a real Mona (and the ROS messages) carry them: IR ranges
+as float32 metres from the body edge (inf = nothing). The kernels are compiled with numba. The
+IR kernel finds a robot's neighbours in a uniform grid of cells (cell lists), so a swarm of
+10,000 costs what 10,000 robots alone do, not the 10,000^2 pairs. A beam sees the nearest of
+the walls, the arena's obstacles (:mod:`swarm_world.arena`, packed in flat arrays) and the
+other robots, with one ray test per kind of shape (:mod:`swarm_world.sensing.rays`); an arena
+without obstacles pays one test per robot for them. Both runners use these same functions,
+and :mod:`swarm_world.reference` holds a plain-Python reference.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
-from mona_controller.mona import MonaParams
-from swarm_world.arena import SEGMENT_RAYS, ObstacleArrays, pack
-from swarm_world.sensing.params import SensingParams
-from swarm_world.sensing.transfer import transfer_table
+from swarm_world.arena import ObstacleArrays, pack
+from swarm_world.sensing.headings import heading_trig
+from swarm_world.sensing.rays import MARGIN, cast_obstacles, near_any, ray_walls
 
-#: No ground noise: what :func:`ground_kernel` takes for ``noise`` when there is none.
-NO_NOISE = np.zeros((0, 2))
+#: The IR kernels' results: ranges [N, K] float32, is_robot [N, K] bool.
+Pair = tuple[np.ndarray, np.ndarray]
+#: The work arrays of :func:`_cast`: cell, start, members, beams, exact.
+Scratch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 #: No obstacles (the bare square): what the IR kernels take when there are none.
 NO_OBSTACLES = pack([])
 
 
 @numba.njit(cache=True)
-def heading_trig(poses):  # pragma: no cover - jitted
-    """[N, 2]: each robot's (cos, sin) of its heading. The ground sensors, the IR ring and the
-    wheels' force all need them; a batch works them out once per step for all three."""
-    trig = np.empty((poses.shape[0], 2))
-    for i in range(poses.shape[0]):
-        trig[i, 0], trig[i, 1] = math.cos(poses[i, 2]), math.sin(poses[i, 2])
-    return trig
-
-
-@numba.njit(cache=True)
-def ground_kernel(cue, cell_size, poses, trig, geometry, table, noise,
-                  out):  # pragma: no cover - jitted
-    """The compiled core of :func:`ground_readings`, into ``out`` [N, 2] uint8.
-
-    Args:
-        cue: the sensed field (float32 [rows, cols]).
-        cell_size: m per cell.
-        poses: [N, 3] float64; trig: their :func:`heading_trig`.
-        geometry: (half the distance between the sensors, how far ahead of the axle they
-            sit) in m (:func:`sensor_geometry`).
-        table: the transfer's readings at evenly spaced cue values
-            (:func:`swarm_world.sensing.transfer.transfer_table`), or empty: the cell value itself.
-        noise: [N, 2] reading units added before rounding, or :data:`NO_NOISE` (zero rows).
-        out: [N, 2] uint8, filled and returned.
-    """
-    last = cue.shape[0] - 1
-    noisy = noise.shape[0] > 0
-    half_separation, offset = geometry[0], geometry[1]
-    knots = table.shape[0]
-    for i in range(poses.shape[0]):
-        x, y = poses[i, 0], poses[i, 1]
-        if offset != 0.0:  # ahead of the axle, along the heading
-            x, y = x + trig[i, 0] * offset, y + trig[i, 1] * offset
-        # The left sensor is at +y in the body frame (REP 103): offset (-sin, cos) * half.
-        ox = -trig[i, 1] * half_separation
-        oy = trig[i, 0] * half_separation
-        for side in range(2):
-            sign = 1.0 if side == 0 else -1.0
-            col = min(max(math.floor((x + sign * ox) / cell_size), 0), last)
-            row = min(max(math.floor((y + sign * oy) / cell_size), 0), last)
-            value = cue[row, col]
-            if knots:  # the transfer, linear between its knots
-                at = min(max(value * (knots - 1) / 255.0, 0.0), knots - 1.0)
-                below = min(int(at), knots - 2)
-                value = table[below] + (at - below) * (table[below + 1] - table[below])
-            if noisy:
-                value = value + noise[i, side]
-            out[i, side] = np.uint8(min(max(np.rint(value), 0.0), 255.0))
-    return out
-
-
-def sensor_geometry(mona: MonaParams, sensing: SensingParams) -> np.ndarray:
-    """[half the distance between the two ground sensors, their offset ahead of the axle] (m):
-    under the wheels unless ``sensing.ground_baseline`` says otherwise."""
-    baseline = sensing.ground_baseline or mona.wheel_separation
-    return np.array([baseline / 2, sensing.ground_offset])
-
-
-def ground_readings(cue: np.ndarray, cell_size: float, poses: np.ndarray, mona: MonaParams,
-                    sensing: SensingParams, noise: np.ndarray | None = None) -> np.ndarray:
-    """What the left and right ground sensors read, rounded: [N, 2] uint8 (left, right).
-
-    Args:
-        cue: the field the sensors see (the cue, or its footprint's sensed field).
-        mona, sensing: the robot's wheels; the sensors' geometry and transfer.
-        noise: [N, 2] reading units added to each value before it is rounded and clipped to
-            0..255 (sensor noise; None: none).
-    """
-    out = np.empty((len(poses), 2), dtype=np.uint8)
-    noise = NO_NOISE if noise is None else np.ascontiguousarray(noise, dtype=np.float64)
-    poses = np.ascontiguousarray(poses, dtype=np.float64)
-    return ground_kernel(cue, cell_size, poses, heading_trig(poses),
-                         sensor_geometry(mona, sensing), transfer_table(sensing), noise, out)
-
-
-@numba.njit(cache=True)
-def ground_many_kernel(fields, bounds, cell_size, geometry, tables, tabled, poses, trig,
-                       noise, noisy, out):  # pragma: no cover - jitted
-    """:func:`ground_kernel` for several arenas in one call (the batched engine).
-
-    Args:
-        fields: a typed list of each arena's sensed field.
-        bounds: [E + 1] int64, arena e holds robots ``bounds[e]:bounds[e + 1]``.
-        cell_size: [E] each arena's; geometry: [E, 2] each arena's :func:`sensor_geometry`.
-        tables: [E, K] the transfer tables (K may be 0); tabled: [E] bool, arena e reads
-            through its row (else the cell value itself).
-        poses, trig: [R, 3] and [R, 2] every robot's, arena after arena.
-        noise: [R, 2] reading units (rows of noisy arenas only are read), or
-            :data:`NO_NOISE`.
-        noisy: [E] bool, whether arena e adds its rows of ``noise``.
-        out: [R, 2] uint8, filled and returned.
-    """
-    # Each arena's robots [bounds[e], bounds[e + 1]) on its own field, by the one-arena
-    # kernel on their own rows: the same arithmetic, so the same readings, as alone.
-    for e in range(bounds.shape[0] - 1):
-        lo, hi = bounds[e], bounds[e + 1]
-        ground_kernel(fields[e], cell_size[e], poses[lo:hi], trig[lo:hi], geometry[e],
-                      tables[e] if tabled[e] else tables[e, :0],
-                      noise[lo:hi] if noisy[e] else noise[lo:lo], out[lo:hi])
-    return out
-
-
-@numba.njit(cache=True)
-def _cell_lists(poses, arena_side, min_width, cell, start, members):  # pragma: no cover
+def _cell_lists(poses: np.ndarray, arena_side: float, min_width: float, cell: np.ndarray,
+                start: np.ndarray, members: np.ndarray
+                ) -> tuple[int, float]:  # pragma: no cover - jitted
     """Bucket the robots into a uniform grid of square cells at least ``min_width`` wide.
 
     Returns (columns, width): the robots of cell c = row * columns + col are
@@ -169,13 +66,13 @@ def _cell_lists(poses, arena_side, min_width, cell, start, members):  # pragma: 
 
 
 @numba.njit(cache=True)
-def _most_columns(n):  # pragma: no cover - jitted
+def _most_columns(n: int) -> int:  # pragma: no cover - jitted
     """The most grid columns :func:`_cell_lists` uses for n robots."""
     return int(math.sqrt(16.0 * n)) + 1
 
 
 @numba.njit(cache=True)
-def _cell_of(coordinate, width, columns):  # pragma: no cover - jitted
+def _cell_of(coordinate: float, width: float, columns: int) -> int:  # pragma: no cover
     """The grid column (or row) of a coordinate, clamped to the grid (NaN -> 0)."""
     if not coordinate > 0.0:
         return 0
@@ -184,25 +81,25 @@ def _cell_of(coordinate, width, columns):  # pragma: no cover - jitted
     return min(int(coordinate / width), columns - 1)
 
 
-#: A beam is skipped on its approximate direction only when it misses by more than this (m,
-#: m^2): the approximation is within 1e-12 of the exact direction (headings below
-#: _TRUSTED_HEADING), so the exact test would skip it too.
-_MARGIN = 1e-9
 #: Above this |heading| (rad) every beam's direction is computed exactly.
-_TRUSTED_HEADING = 1e4
+TRUSTED_HEADING = 1e4
 
 
 @numba.njit(cache=True)
-def _proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
-                      geometry, ranges, is_robot):  # pragma: no cover - jitted
+def _proximity_kernel(poses: np.ndarray, body_radius: float, bearings: np.ndarray,
+                      ir_range: float, arena_side: float, boxes: np.ndarray | None,
+                      kinds: Any, first: Any, geometry: Any, ranges: np.ndarray,
+                      is_robot: np.ndarray
+                      ) -> Pair:  # pragma: no cover - jitted
     n, k = poses.shape[0], bearings.shape[0]
     return _cast(poses, heading_trig(poses), body_radius, bearings, ir_range, arena_side,
                  boxes, kinds, first, geometry, ranges, is_robot, *_scratch(n, k))
 
 
 @numba.njit(cache=True)
-def _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, ranges,
-                           is_robot):  # pragma: no cover - jitted
+def _bare_proximity_kernel(poses: np.ndarray, body_radius: float, bearings: np.ndarray,
+                           ir_range: float, arena_side: float, ranges: np.ndarray,
+                           is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # _proximity_kernel without obstacles: four arguments fewer to dispatch (about 0.1 us
     # each, 10 % of a 50-robot call), and None for them compiles _cast without its obstacle
     # tests (numba prunes the `is not None` branches of a None argument).
@@ -211,7 +108,7 @@ def _bare_proximity_kernel(poses, body_radius, bearings, ir_range, arena_side, r
 
 
 @numba.njit(cache=True)
-def _scratch(n, k):  # pragma: no cover - jitted
+def _scratch(n: int, k: int) -> Scratch:  # pragma: no cover - jitted
     """The work arrays of :func:`_cast` for up to n robots and k beams (allocated once per
     call of a kernel, not once per arena)."""
     columns = _most_columns(n)
@@ -221,7 +118,7 @@ def _scratch(n, k):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _batch_scratch(bounds, k):  # pragma: no cover - jitted
+def _batch_scratch(bounds: np.ndarray, k: int) -> Scratch:  # pragma: no cover - jitted
     """:func:`_scratch` for the largest arena of a batch (arena e holds robots
     ``bounds[e]:bounds[e + 1]``), shared by all of them."""
     most = 0
@@ -236,88 +133,11 @@ _BEAM_ROWS = 7
 
 
 @numba.njit(cache=True)
-def ray_walls(x, y, ux, uy, side):  # pragma: no cover - jitted
-    """The distance along the beam from (x, y) in direction (ux, uy) to the walls of the
-    square [0, side]^2 (negative from beyond a wall; inf along a wall)."""
-    tx = (side - x) / ux if ux > 0 else (-x / ux if ux < 0 else np.inf)
-    ty = (side - y) / uy if uy > 0 else (-y / uy if uy < 0 else np.inf)
-    return min(tx, ty)
-
-
-@numba.njit(cache=True)
-def ray_disc(x, y, ux, uy, cx, cy, radius):  # pragma: no cover - jitted
-    """The distance along the beam from (x, y) in direction (ux, uy) to the disc of centre
-    (cx, cy): 0 from inside it, inf if it misses (a tangent beam touches it, if rounding
-    leaves it tangent)."""
-    dx, dy = cx - x, cy - y
-    along = ux * dx + uy * dy  # the centre's foot on the beam
-    outside = dx * dx + dy * dy - radius * radius
-    if outside <= 0.0:
-        return 0.0
-    disc = along * along - outside
-    if along > 0.0 and disc >= 0.0:
-        return along - math.sqrt(disc)
-    return np.inf  # points away, or passes by (also NaN)
-
-
-@numba.njit(cache=True)
-def ray_segment(x, y, ux, uy, ax, ay, bx, by):  # pragma: no cover - jitted
-    """The distance along the beam from (x, y) in direction (ux, uy) to the segment from
-    (ax, ay) to (bx, by), ends included; inf if it misses or runs parallel to it (a beam
-    along an edge is seen by the edges at its ends)."""
-    ex, ey = bx - ax, by - ay
-    across = ux * ey - uy * ex
-    if across == 0.0:
-        return np.inf
-    wx, wy = ax - x, ay - y
-    t = (wx * ey - wy * ex) / across
-    s = (wx * uy - wy * ux) / across  # where on the segment, 0 at a, 1 at b
-    if t >= 0.0 and s >= 0.0 and s <= 1.0:
-        return t
-    return np.inf
-
-
-@numba.njit(cache=True)
-def _near(boxes, m, x, y, reach):  # pragma: no cover - jitted
-    """Whether a beam of length ``reach`` from (x, y) may reach obstacle m's bounding box
-    (widened by _MARGIN: a skip test, it must never skip a hit)."""
-    reach = reach + _MARGIN
-    return (x + reach >= boxes[m, 0] and x - reach <= boxes[m, 2]
-            and y + reach >= boxes[m, 1] and y - reach <= boxes[m, 3])
-
-
-@numba.njit(cache=True)
-def _near_any(boxes, x, y, reach):  # pragma: no cover - jitted
-    for m in range(boxes.shape[0]):
-        if _near(boxes, m, x, y, reach):
-            return True
-    return False
-
-
-@numba.njit(cache=True)
-def _cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy,
-                    hit):  # pragma: no cover - jitted
-    """Lower each beam's hit (exact directions ux, uy) to the nearest obstacle within reach."""
-    for m in range(boxes.shape[0]):
-        if not _near(boxes, m, x, y, reach):
-            continue
-        segments = kinds[m] == SEGMENT_RAYS
-        for row in range(first[m], first[m + 1]):
-            g0, g1 = geometry[row, 0], geometry[row, 1]
-            g2, g3 = geometry[row, 2], geometry[row, 3]
-            for b in range(ux.shape[0]):
-                if segments:
-                    t = ray_segment(x, y, ux[b], uy[b], g0, g1, g2, g3)
-                else:
-                    t = ray_disc(x, y, ux[b], uy[b], g0, g1, g2)
-                if t <= reach and t < hit[b]:
-                    hit[b] = t
-
-
-@numba.njit(cache=True)
-def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds, first,
-          geometry, ranges, is_robot, cell, start, members, beams,
-          exact):  # pragma: no cover - jitted
+def _cast(poses: np.ndarray, trig: np.ndarray, body_radius: float, bearings: np.ndarray,
+          ir_range: float, arena_side: float, boxes: np.ndarray | None, kinds: Any,
+          first: Any, geometry: Any, ranges: np.ndarray, is_robot: np.ndarray,
+          cell: np.ndarray, start: np.ndarray, members: np.ndarray, beams: np.ndarray,
+          exact: np.ndarray) -> Pair:  # pragma: no cover - jitted
     """One arena's IR ring into ranges and is_robot, in the given work arrays; the arena's
     obstacles are boxes, kinds, first (rows of the whole geometry array) as in
     :class:`~swarm_world.arena.ObstacleArrays`, or None for each (no obstacles: compiled
@@ -344,12 +164,12 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds
         near_wall = x < reach or y < reach or x > arena_side - reach or y > arena_side - reach
         near_obstacle = False
         if boxes is not None:  # compiled out for an arena without obstacles (None)
-            near_obstacle = _near_any(boxes, x, y, reach)
+            near_obstacle = near_any(boxes, x, y, reach)
         # The exact directions (10 trigonometric calls) cost most of a robot's time: they are
         # worked out for every beam near a wall or an obstacle, else only for a beam that may
         # hit a neighbour by its approximate direction (2 calls per robot), so the readings
         # are those of the exact directions.
-        approximate = not near_wall and not near_obstacle and abs(heading) < _TRUSTED_HEADING
+        approximate = not near_wall and not near_obstacle and abs(heading) < TRUSTED_HEADING
         aimed = False
         for b in range(k):
             hit[b] = np.inf
@@ -365,12 +185,12 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds
         # tie is a wall (not a robot), as with the walls.
         if boxes is not None:
             if near_obstacle:
-                _cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy, hit)
+                cast_obstacles(x, y, reach, boxes, kinds, first, geometry, ux, uy, hit)
         col, row = _cell_of(x, width, columns), _cell_of(y, width, columns)
         for r in range(max(row - 1, 0), min(row + 2, columns)):
             for c in range(max(col - 1, 0), min(col + 2, columns)):
-                cell = r * columns + c
-                for m in range(start[cell], start[cell + 1]):
+                here = r * columns + c
+                for m in range(start[here], start[here + 1]):
                     j = members[m]
                     dx, dy = poses[j, 0] - x, poses[j, 1] - y
                     distance_sq = dx * dx + dy * dy
@@ -385,8 +205,8 @@ def _cast(poses, trig, body_radius, bearings, ir_range, arena_side, boxes, kinds
                     for b in range(k):
                         if not exact[b]:
                             along = ax[b] * dx + ay[b] * dy
-                            if (along < -_MARGIN
-                                    or along * along - (distance_sq - radius_sq) < -_MARGIN):
+                            if (along < -MARGIN
+                                    or along * along - (distance_sq - radius_sq) < -MARGIN):
                                 continue  # misses for sure: no need of the exact direction
                             ux[b] = math.cos(heading + bearings[b])
                             uy[b] = math.sin(heading + bearings[b])
@@ -433,9 +253,12 @@ def proximity(poses: np.ndarray, body_radius: float, bearings: np.ndarray, ir_ra
 
 
 @numba.njit(cache=True)
-def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range, arena_side,
-                           boxes, kinds, first, geometry, obstacle_bounds, ranges,
-                           is_robot):  # pragma: no cover - jitted
+def _proximity_many_kernel(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
+                           body_radius: np.ndarray, bearings: np.ndarray,
+                           ir_range: np.ndarray, arena_side: np.ndarray, boxes: np.ndarray,
+                           kinds: np.ndarray, first: np.ndarray, geometry: np.ndarray,
+                           obstacle_bounds: np.ndarray, ranges: np.ndarray,
+                           is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # Each episode's robots [bounds[e], bounds[e + 1]) see only each other and their own
     # arena's obstacles, by the one-arena kernel on their own rows: the same arithmetic, so
     # the same readings, as alone.
@@ -450,8 +273,11 @@ def _proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
 
 
 @numba.njit(cache=True)
-def _bare_proximity_many_kernel(poses, trig, bounds, body_radius, bearings, ir_range,
-                                arena_side, ranges, is_robot):  # pragma: no cover - jitted
+def _bare_proximity_many_kernel(poses: np.ndarray, trig: np.ndarray, bounds: np.ndarray,
+                                body_radius: np.ndarray, bearings: np.ndarray,
+                                ir_range: np.ndarray, arena_side: np.ndarray,
+                                ranges: np.ndarray,
+                                is_robot: np.ndarray) -> Pair:  # pragma: no cover - jitted
     # _proximity_many_kernel when no arena has obstacles: five arrays fewer to pass, and no
     # obstacle arrays to slice per arena.
     work = _batch_scratch(bounds, bearings.shape[1])

@@ -18,9 +18,9 @@ from rclpy.context import Context
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
-from mona_controller import qos
+from mona_controller.ros import qos
 from mona_controller.schema import ParameterError
-from swarm_metrics.bags.reader import McapScan
+from swarm_metrics.bags.scan import McapScan
 
 #: The QoS of a recorded topic the contract does not know.
 OTHER_QOS = QoSProfile(depth=10)

@@ -22,15 +22,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from mona_controller import plugins
-from mona_controller.keys import renamed_keys
-from mona_controller.schema import (
-    ParameterError,
-    Spec,
-    flat_fields,
-    from_mapping,
-    moved_keys,
-    unflatten,
-)
+from mona_controller.keys import moved_keys, renamed_keys
+from mona_controller.mappings import flat_fields, from_mapping, unflatten
+from mona_controller.schema import ParameterError, Spec
 
 T = TypeVar('T')
 

@@ -14,8 +14,10 @@ import importlib
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-# The names are the contract's; re-exported so a node needs one import for name and QoS.
-from mona_controller.contract import (  # noqa: F401
+from mona_controller.contract import WORLD_FRAME, base_frame  # noqa: F401
+
+# The topic table's names, re-exported so a node needs one import for name and QoS.
+from mona_controller.topics import (  # noqa: F401
     CLEANER,
     CLEANING,
     CLOCK,
@@ -35,9 +37,7 @@ from mona_controller.contract import (  # noqa: F401
     STATE,
     STATUS,
     TOPICS,
-    WORLD_FRAME,
     QoS,
-    base_frame,
     metric_topic,
     robot_namespace,
     robot_topic,

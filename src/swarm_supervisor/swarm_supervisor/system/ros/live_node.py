@@ -15,7 +15,7 @@ holds the run's final state however late it started on a busy machine. Exit stat
 the shutdown announcement and its linger, or SIGINT/SIGTERM; 2 for a bad parameter or a port
 it cannot listen on.
 
-    python -m swarm_supervisor.system.live_node --ros-args -p port:=8765
+    python -m swarm_supervisor.system.ros.live_node --ros-args -p port:=8765
 """
 
 from __future__ import annotations
@@ -32,14 +32,14 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
 
-from mona_controller import qos
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_plugins, declare_section
+from mona_controller.ros import qos
+from mona_controller.ros.ros_params import declare_plugins, declare_section
+from mona_controller.ros.shutdown import teardown
 from mona_controller.schema import ParameterError, param, validate
-from mona_controller.shutdown import teardown
-from swarm_metrics.bags.recording import stamp_ns
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 from swarm_supervisor.system.processes import LIVE_READY
+from swarm_world.messages.cdr import stamp_ns
 
 #: The world's topics published with every step and kept for no late subscriber: the live
 #: view must be subscribed before step 0 to show the episode and, after it, its final state.

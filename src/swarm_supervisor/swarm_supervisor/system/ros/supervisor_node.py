@@ -32,7 +32,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from mona_controller import qos
 from mona_controller.contract import (
     Announcement,
     ContractError,
@@ -44,9 +43,10 @@ from mona_controller.contract import (
 )
 from mona_controller.controllers import states_of
 from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.ros_params import declare_plugins, declare_section
+from mona_controller.ros import qos
+from mona_controller.ros.ros_params import declare_plugins, declare_section
+from mona_controller.ros.shutdown import teardown
 from mona_controller.schema import ParameterError, param, validate
-from mona_controller.shutdown import teardown
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
 from swarm_supervisor.system.progress import ProgressFile

@@ -1,6 +1,6 @@
 """The controller node: one Mona's controller behind its ground, proximity and cmd_vel topics.
 
-A thin adapter: :mod:`~mona_controller.messages` converts the messages,
+A thin adapter: :mod:`~mona_controller.ros.messages` converts the messages,
 :class:`~mona_controller.pairing.ReadingPairs` pairs the readings by stamp and answers repeats,
 the controller of one robot, of the kind ``controller.kind`` names (built by
 :func:`~mona_controller.controllers.base.make_controller`), computes new answers at
@@ -26,23 +26,24 @@ from rclpy.task import Future
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String, UInt8
 
-from mona_controller import qos
 from mona_controller.contract import Announcement, ContractError
 from mona_controller.controllers.base import Controller, make_controller
 from mona_controller.controllers.params import ControllerParams
-from mona_controller.messages import (
+from mona_controller.mappings import differences
+from mona_controller.mona import MonaParams, wheels_to_twist
+from mona_controller.node_help import node_parser, parse_node_args
+from mona_controller.pairing import RateLimitedLog, ReadingPairs
+from mona_controller.ros import qos
+from mona_controller.ros.messages import (
     ReadingError,
     fill_twist,
     ground_from_image,
     proximity_from_scan,
     stamp_to_ns,
 )
-from mona_controller.mona import MonaParams, wheels_to_twist
-from mona_controller.node_help import node_parser, parse_node_args
-from mona_controller.pairing import RateLimitedLog, ReadingPairs
-from mona_controller.ros_params import declare_plugins, declare_section
-from mona_controller.schema import ParameterError, differences, param, validate
-from mona_controller.shutdown import teardown
+from mona_controller.ros.ros_params import declare_plugins, declare_section
+from mona_controller.ros.shutdown import teardown
+from mona_controller.schema import ParameterError, param, validate
 
 #: Wall seconds between checks that a world (or driver) listens to our commands.
 LISTEN_POLL = 0.02
