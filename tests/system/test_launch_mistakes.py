@@ -26,7 +26,8 @@ STOP_LIMIT = 15.0
                          ids=['spawning', 'discovery'])
 def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
     run = swarm('--population', str(MANY), '--duration', '3000', '--seed', '1')
-    # 3 s: the launcher is spawning, the controllers import rclpy; 20 s: every process has
+    # 3 s: the launcher is spawning, the controllers import rclpy (on a busy machine it may
+    # still be checking the parameters, or Python still importing); 20 s: every process has
     # started, the nodes discover each other (on a loaded machine, some still start).
     time.sleep(after)
     assert run.process.poll() is None, run.stderr
@@ -42,8 +43,11 @@ def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
     print(f'\nSIGTERM {after:g} s into the start-up: {len(run.nodes())} processes started, '
           f'the script ended with {status} and every process was gone {took:.1f} s after the '
           'signal')
-    assert status == 143, run.stderr
-    assert 'SIGTERM received' in run.stderr
+    if status == -signal.SIGTERM:  # Python had not yet run the launcher: nothing to stop
+        assert not run.nodes(), run.stderr
+    else:  # the launcher's own handler, also during its checks (before a node started)
+        assert status == 143, run.stderr
+        assert 'SIGTERM received' in run.stderr
     assert took < STOP_LIMIT
 
 
@@ -59,3 +63,4 @@ def test_an_impossible_population_is_refused_before_any_node_starts(tmp_path: Pa
     assert 'Traceback' not in done.stderr
     assert not (out / 'processes.tsv').exists() and not (out / 'logs').exists()
     assert time.monotonic() - began < 10
+

@@ -295,6 +295,8 @@ class Run:
 def launch(options: argparse.Namespace) -> int:
     """Run the node system of ``options`` (``mona-swarm launch``); returns the exit status
     (:mod:`swarm_supervisor.exits`)."""
+    caught: list[str] = []  # a SIGTERM before the run's own handler: start nothing, end 143
+    signal.signal(signal.SIGTERM, lambda sig, frame: caught.append('SIGTERM'))
     try:
         profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(default_profile())
         executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
@@ -353,6 +355,7 @@ def launch(options: argparse.Namespace) -> int:
     env = ros_environment(domain, Path(profile), log_dir=out / 'logs' / 'ros')
     write_ros_env(out / 'ros_env.sh', env)
     run = Run(out, env, domain, (lock.fileno(),) if lock else (), options.timeout)
+    run.stopping = ''.join(caught[-1:])
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, run.catch)
     population = config.episode.population
