@@ -1,17 +1,24 @@
 """The project as a user installs and extends it.
 
 ``pip install .`` (the repository root's pyproject.toml) into a fresh virtual environment, from
-a copy of the repository's files (pip builds in the tree it is given); then, from a
-temporary folder outside the repository and with nothing of the repository on the path, the
-recipes of docs/extending.md exactly as the page has them: each file of ``my_swarm/`` (a
-metric, a controller kind, an obstacle layout, the parameter file naming them, a claim)
-written from the page, each of its ``cd my_swarm`` command blocks run by bash. They run an
-episode with its bag, ``analyze``, a study with the claim on the metric, and the node system.
+a copy of the repository's files (pip builds in the tree it is given): the root's
+distribution and the four packages it names by path are built and installed (not editable),
+and ``pip check`` finds every requirement met. Then, from a temporary folder outside the
+repository and with nothing of the repository on the path, the recipes of docs/extending.md
+exactly as the page has them: each file of ``my_swarm/`` (a metric, a controller kind, an
+obstacle layout, the parameter file naming them, a claim) written from the page, each of its
+``cd my_swarm`` command blocks run by bash. They run an episode with its bag, ``analyze``, a
+study with the claim on the metric, and the node system.
 
-The dependencies come from a wheelhouse outside the checkout (``MONA_SWARM_WHEELHOUSE``,
-default ~/.cache/mona-swarm/wheels): ``pip download`` fills it with the pinned requirements
-and the build backends once per machine (a few minutes), then ``pip install --no-index
---find-links`` installs from it alone (the index's answers are not cached by pip here).
+The pinned libraries are not installed again (that took minutes): the fresh venv sees the
+test's own venv's copies through a ``.pth`` file naming a folder of links to them, every
+entry of its site-packages but the project's four packages, pip and the build tools; a second
+line of that file does for the ROS wheels' libraries what their ``ros_wheels_bootstrapper``
+does in the venv that holds them (it looks only under ``sys.prefix``). pip sees those
+libraries as installed, so it resolves the root's pinned dependencies against them and
+installs nothing from an index. The build backends come from a small wheelhouse outside the
+checkout (``MONA_SWARM_WHEELHOUSE``, default ~/.cache/mona-swarm/backends), which ``pip
+download`` fills once per machine.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import re
 import shutil
 import subprocess
 import sys
+import sysconfig
 import time
 import tomllib
 from pathlib import Path
@@ -37,9 +45,14 @@ pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
 PAGE = REPO / 'docs' / 'extending.md'
 WHEELHOUSE = Path(os.environ.get('MONA_SWARM_WHEELHOUSE',
-                                 Path.home() / '.cache' / 'mona-swarm' / 'wheels'))
+                                 Path.home() / '.cache' / 'mona-swarm' / 'backends'))
 #: The build backends: the root's (hatchling) and the four packages' (setuptools' legacy one).
 BACKENDS = ('setuptools', 'wheel')
+#: The project's distributions (what the fresh venv must install itself), and what it has of
+#: its own: these top-level entries of this venv's site-packages are not linked into it.
+PROJECT = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor', 'mona_swarm')
+OWN = ('pip', 'setuptools', 'wheel', 'pkg_resources', '_distutils_hack', 'hatchling',
+       '__pycache__')
 
 
 def run(command: list[str], **options) -> subprocess.CompletedProcess:
@@ -51,22 +64,20 @@ def run(command: list[str], **options) -> subprocess.CompletedProcess:
 
 
 def requirements() -> list[str]:
-    """What the install needs from the wheelhouse: the root's pinned dependencies (not the
-    four packages it names by path) and every build backend."""
+    """What the install needs from the wheelhouse: every build backend."""
     project = tomllib.loads((REPO / 'pyproject.toml').read_text())
-    pinned = [r for r in project['project']['dependencies'] if ' @ ' not in r]
-    return sorted(pinned + project['build-system']['requires'] + list(BACKENDS))
+    return sorted(project['build-system']['requires'] + list(BACKENDS))
 
 
 def fill_wheelhouse() -> None:
-    """Download the requirements' wheels once (a marker file lists what is there)."""
+    """Download the backends' wheels once (a marker file lists what is there)."""
     wanted = '\n'.join(requirements()) + '\n'
     marker = WHEELHOUSE / '.requirements'
     if marker.is_file() and marker.read_text() == wanted:
         return
     WHEELHOUSE.mkdir(parents=True, exist_ok=True)
     run([sys.executable, '-m', 'pip', 'download', '--quiet', '--dest', str(WHEELHOUSE),
-         *requirements()], timeout=3600)
+         *requirements()], timeout=600)
     marker.write_text(wanted)
 
 
@@ -86,6 +97,37 @@ def copy_repository(to: Path) -> Path:
     return to
 
 
+def _normal(entry: str) -> str:
+    """A site-packages entry's distribution or module name, lower case, ``-`` as ``_``."""
+    return re.split(r'[-.]', entry, maxsplit=1)[0].lower().replace('-', '_')
+
+
+def link_libraries(venv: Path, links: Path) -> None:
+    """Make this venv's libraries, less the project's and the fresh venv's own, importable
+    in ``venv``: ``links`` gets a link to each, and a ``.pth`` file in ``venv``'s
+    site-packages names it, then points the dynamic loader at the ROS wheels' libraries (as
+    their ``ros_wheels_bootstrapper`` does: re-running Python once with LD_LIBRARY_PATH
+    set)."""
+    ours = Path(sysconfig.get_paths()['purelib'])
+    links.mkdir()
+    for entry in sorted(os.listdir(ours)):
+        if entry.endswith('.pth') or entry.startswith('__editable__') \
+                or _normal(entry) in PROJECT + OWN:
+            continue
+        (links / entry).symlink_to(ours / entry)
+    libraries = [str(Path(sys.prefix) / 'lib'),
+                 *sorted(str(p) for p in ours.glob('ros_*.libs') if p.is_dir())]
+    bootstrap = (
+        "import os, sys; os.environ.get('_ROS_WHEELS_BOOTSTRAP_COMPLETE') or os.execve("
+        "sys.executable, sys.orig_argv, {**os.environ, '_ROS_WHEELS_BOOTSTRAP_COMPLETE': '1', "
+        f"'LD_LIBRARY_PATH': os.pathsep.join([*{libraries!r}, *filter(None, os.environ.get("
+        "'LD_LIBRARY_PATH', '').split(os.pathsep))])})")
+    site = Path(run([str(venv / 'bin' / 'python'), '-c',
+                     'import sysconfig; print(sysconfig.get_paths()["purelib"])'],
+                    timeout=60).stdout.strip())
+    (site / 'mona_swarm_test_libraries.pth').write_text(f'{links}\n{bootstrap}\n')
+
+
 @pytest.fixture(scope='module')
 def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A fresh virtual environment with the project ``pip install``ed: its bin folder."""
@@ -95,19 +137,32 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     source = copy_repository(root / 'mona-swarm')
     venv = root / 'venv'
     run([sys.executable, '-m', 'venv', str(venv)], timeout=300)
-    run([str(venv / 'bin' / 'python'), '-m', 'pip', 'install', '--quiet', '--no-index',
-         '--find-links', str(WHEELHOUSE), str(source)], cwd=root, timeout=3600)
+    link_libraries(venv, root / 'libraries')
+    python = str(venv / 'bin' / 'python')
+    env = user_environment(venv / 'bin')
+    local = ['--quiet', '--no-index', '--find-links', str(WHEELHOUSE)]
+    run([python, '-m', 'pip', 'install', *local, *requirements()], cwd=root, env=env,
+        timeout=600)
+    run([python, '-m', 'pip', 'install', *local, '--no-build-isolation', str(source)],
+        cwd=root, env=env, timeout=1800)
+    run([python, '-m', 'pip', 'check'], cwd=root, env=env, timeout=300)
     print(f'installed in {time.monotonic() - started:.0f} s')
     return venv / 'bin'
 
 
 def user_environment(bin_dir: Path) -> dict[str, str]:
-    """A shell of a user who activated the venv: nothing of the repository on any path."""
+    """A shell of a user who activated the venv: nothing of the repository on any path, and
+    nothing of this venv's ROS bootstrap (the fresh venv does its own)."""
     env = {key: value for key, value in os.environ.items()
-           if key not in ('PYTHONPATH', 'VIRTUAL_ENV', 'MONA_SWARM_METRICS')
+           if key not in ('PYTHONPATH', 'VIRTUAL_ENV', 'MONA_SWARM_METRICS',
+                          '_ROS_WHEELS_BOOTSTRAP_COMPLETE')
            and not key.startswith(('PYTEST', 'AMENT'))}
     env['PATH'] = os.pathsep.join([str(bin_dir), *[p for p in env.get('PATH', '').split(
         os.pathsep) if p and not p.startswith(str(REPO))]])
+    loader = [p for p in env.pop('LD_LIBRARY_PATH', '').split(os.pathsep)
+              if p and not p.startswith((str(REPO), sys.prefix))]
+    if loader:
+        env['LD_LIBRARY_PATH'] = os.pathsep.join(loader)
     env['VIRTUAL_ENV'] = str(bin_dir.parent)
     return env
 
@@ -121,6 +176,25 @@ def test_the_recipes_parse():
     for needed in ('mona-swarm run', 'mona-swarm study', 'mona-swarm analyze',
                    'mona-swarm launch', '--claims claims.yaml'):
         assert needed in script
+
+
+def test_the_installed_copies_run(installed: Path, tmp_path: Path):
+    """The console script is the fresh venv's, and the modules it imports are the copies
+    pip installed there, not the repository's; ROS loads."""
+    env = user_environment(installed)
+    assert shutil.which('mona-swarm', path=env['PATH']) == str(installed / 'mona-swarm')
+    venv = installed.parent.resolve()
+    done = run([str(installed / 'python'), '-c',
+                'import json, rclpy, mona_controller, swarm_world, swarm_metrics, '
+                'swarm_supervisor, sys; print(json.dumps([sys.prefix] + [m.__file__ for m in '
+                '(mona_controller, swarm_world, swarm_metrics, swarm_supervisor)]))'],
+               cwd=tmp_path, env=env, timeout=120)
+    prefix, *files = json.loads(done.stdout)
+    assert Path(prefix).resolve() == venv
+    for file in files:
+        assert Path(file).resolve().is_relative_to(venv), file
+    script = (installed / 'mona-swarm').read_text().split('\n', 1)[0]
+    assert script == f'#!{installed / "python"}', script
 
 
 def test_an_installed_package_runs_the_recipes_from_a_folder_of_ones_own(

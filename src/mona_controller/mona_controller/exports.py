@@ -22,10 +22,11 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 
-def lazy_exports(package: str, where: Mapping[str, str]
+def lazy_exports(package: str, where: Mapping[str, str], here: Sequence[str] = ()
                  ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """A module ``__getattr__`` and ``__dir__`` for ``package`` whose public names live in
-    its modules: ``where`` maps each name to its module's name within the package."""
+    its modules: ``where`` maps each name to its module's name within the package; ``here``
+    names the public names the package's ``__init__`` defines itself."""
 
     def __getattr__(name: str) -> Any:
         module = where.get(name)
@@ -34,7 +35,7 @@ def lazy_exports(package: str, where: Mapping[str, str]
         return getattr(importlib.import_module(f'{package}.{module}'), name)
 
     def __dir__() -> list[str]:
-        return sorted(where)
+        return sorted([*where, *here])
 
     return __getattr__, __dir__
 

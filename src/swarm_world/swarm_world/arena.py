@@ -28,14 +28,16 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import re
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from mona_controller.schema import ParameterError
-from swarm_world.sources import NAME_PATTERN
 
+#: Source and obstacle names become metrics columns and topic names: lower-case identifiers.
+NAME_PATTERN = re.compile(r'^[a-z][a-z0-9_]*$')
 #: What the IR kernel casts a beam against (``ObstacleArrays.kinds``).
 DISC_RAYS, SEGMENT_RAYS = 0, 1
 

@@ -6,9 +6,9 @@ import dataclasses
 from typing import Any
 
 from mona_controller.schema import ParameterError, param, validate
-from swarm_world.arena import Arena, parse_obstacles
+from swarm_world.arena import NAME_PATTERN, Arena, parse_obstacles
 from swarm_world.layouts import layout_obstacles
-from swarm_world.sources import NAME_PATTERN, PAPER_SOURCE, PROFILES, Source
+from swarm_world.sources import PAPER_SOURCE, PROFILES, Source
 
 CLEANING_MODES = ('monotone', 'literal', 'blend')
 #: What the initial cue is under an obstacle: the sources' profile, or none.

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from pathlib import Path
 
 import numba
@@ -23,8 +22,6 @@ from mona_controller.schema import ParameterError
 PROFILES = ('linear', 'gaussian')
 #: A Gaussian source has sigma = radius / GAUSSIAN_SIGMAS and is cut to 0 beyond its radius.
 GAUSSIAN_SIGMAS = 3.0
-#: Source names become metrics columns and topic names: lower-case identifiers.
-NAME_PATTERN = re.compile(r'^[a-z][a-z0-9_]*$')
 #: The name of the paper's single source when ``world.sources`` is empty.
 PAPER_SOURCE = 'source'
 

@@ -7,11 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from tqdm import tqdm
-
-from swarm_metrics.bags.scan import BagError
 from swarm_supervisor.cli.arguments import bounded
-from swarm_supervisor.media.video import AnimateError, animate
 from swarm_supervisor.outputs.location import OutputError, check_location
 
 
@@ -41,6 +37,12 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Render the video; exit 2 for a bad input, 0 once the video is whole."""
+    # Here, not at the top: ``--help`` and a refused argument need no bag reader or video.
+    from tqdm import tqdm
+
+    from swarm_metrics.bags.scan import BagError
+    from swarm_supervisor.media.video import AnimateError, animate
+
     refused = _refused_output(args.out, overwrite=args.overwrite)
     if refused:
         print(f'mona-swarm animate: error: {refused}', file=sys.stderr)

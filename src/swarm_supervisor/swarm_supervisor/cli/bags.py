@@ -37,7 +37,6 @@ from swarm_supervisor.cli.bag_outputs import (
 )
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.runner import EpisodeResult
-from swarm_supervisor.outputs.episode_folder import write_episode
 from swarm_supervisor.outputs.location import check_location
 
 INCOMPLETE, BAD_BAG = 1, 2  # exit statuses
@@ -173,6 +172,9 @@ def analyze_bag(path: Path, out: Path, *, allow_incomplete: bool = False,
         RecordExists: ``out`` holds a record and not ``overwrite``.
         PluginError: a plug-in the bag records is missing or is not the code it recorded.
     """
+    # Here, not at the top: the pictures (matplotlib) are for a bag analysed, not for --help.
+    from swarm_supervisor.outputs.episode_folder import write_episode
+
     bag, note = with_recovery(path, read_episode_bag)
     # The run's plug-ins, the very code it ran: their metrics are recomputed, their layout
     # rebuilt (a missing or changed file is refused, naming it).

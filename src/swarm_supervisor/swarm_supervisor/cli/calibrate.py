@@ -9,9 +9,6 @@ from pathlib import Path
 
 from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
-from swarm_supervisor.engine.inputs import check_inputs
-from swarm_supervisor.outputs.guard import check_place
-from swarm_supervisor.study.cluster import check_address, connect
 
 
 def register(subparsers) -> None:
@@ -55,6 +52,9 @@ def run(args: argparse.Namespace) -> int:
         run_search,
         write_report,
     )
+    from swarm_supervisor.engine.inputs import check_inputs
+    from swarm_supervisor.outputs.guard import check_place
+    from swarm_supervisor.study.cluster import check_address, connect
 
     started = time.perf_counter()
     design = load_design(args.design)

@@ -8,9 +8,6 @@ from pathlib import Path
 
 from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded
-from swarm_supervisor.engine.inputs import check_inputs
-from swarm_supervisor.outputs.guard import check_place
-from swarm_supervisor.study.cluster import check_address
 
 
 def register(subparsers) -> None:
@@ -46,7 +43,10 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evolve, then say where the results are."""
+    from swarm_supervisor.engine.inputs import check_inputs
     from swarm_supervisor.evolution import EvolutionError, evolve, load_design
+    from swarm_supervisor.outputs.guard import check_place
+    from swarm_supervisor.study.cluster import check_address
 
     if args.scheduler and args.jobs:
         raise EvolutionError('--jobs and --scheduler exclude each other (a cluster has as '

@@ -12,27 +12,22 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import cast
-
-from tqdm import tqdm
+from typing import TYPE_CHECKING, cast
 
 from mona_controller.schema import ParameterError
 from swarm_supervisor.cli.arguments import bounded, deprecated_alias, speed_cm_s
-from swarm_supervisor.config import SwarmConfig, load_config
-from swarm_supervisor.engine.inputs import check_inputs
-from swarm_supervisor.engine.runner import (
-    EpisodeObserver,
-    EpisodeResult,
-    Pacer,
-    run_batch,
-    run_episode,
-)
-from swarm_supervisor.media.live import DEFAULT_PORT, LiveServer, LiveView, announce
-from swarm_supervisor.outputs.bag import BagRecorder, RecordError
-from swarm_supervisor.outputs.episode_folder import write_episode
+from swarm_supervisor.media import DEFAULT_PORT
 from swarm_supervisor.outputs.guard import claim_output
 from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 
+if TYPE_CHECKING:
+    from swarm_supervisor.config import SwarmConfig
+    from swarm_supervisor.engine.runner import EpisodeObserver, EpisodeResult
+    from swarm_supervisor.media.live import LiveServer, LiveView
+
+# The engine, the live view (Foxglove), the bag writer and the pictures (matplotlib) are
+# imported where an episode runs, not here: ``--help`` and a refused argument or parameter
+# need none of them.
 
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
@@ -84,6 +79,10 @@ def register(subparsers) -> None:
 
 def _run(config: SwarmConfig, observers: list[EpisodeObserver]) -> EpisodeResult:
     """The episode, with a progress bar."""
+    from tqdm import tqdm
+
+    from swarm_supervisor.engine.runner import run_episode
+
     duration = config.episode.duration
     with tqdm(total=duration, unit='sim s', desc=f'N={config.episode.population}',
               disable=None, file=sys.stderr, bar_format='{l_bar}{bar}| {n:.0f}/{total:.0f} '
@@ -100,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_seeds(args, configs)
     server = None
     if args.live:  # before --out is claimed: a busy port must not cost a record
+        from swarm_supervisor.media.live import LiveServer
+
         try:
             server = LiveServer(args.live_port)
         except RuntimeError as error:
@@ -117,6 +118,11 @@ def run(args: argparse.Namespace) -> int:
 def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer | None
              ) -> int:
     """One episode into the claimed --out, served live to ``server`` if there is one."""
+    from swarm_supervisor.engine.runner import Pacer
+    from swarm_supervisor.media.live import LiveView, announce
+    from swarm_supervisor.outputs.bag import BagRecorder, RecordError
+    from swarm_supervisor.outputs.episode_folder import write_episode
+
     observers: list[EpisodeObserver] = []
     recorder = None
     if args.bag:
@@ -149,7 +155,7 @@ def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer |
           f'{result.real_time_factor:.0f}x real time'
           + (f'; bag {extra["bag"]}' if extra else ''))
     if live is not None:
-        linger(live, cast(LiveServer, server), args.linger)  # live: there is a server
+        linger(live, cast('LiveServer', server), args.linger)  # live: there is a server
     return 0
 
 
@@ -179,6 +185,9 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
         ParameterError: a bad value (from the file or an option), a seed given twice, an
             empty arena, or --live/--pace with several seeds.
     """
+    from swarm_supervisor.config import load_config
+    from swarm_supervisor.engine.inputs import check_inputs
+
     seeds = args.seed or [None]
     repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
     if repeated:  # two episodes would write one folder, DIR/s<seed>
@@ -209,6 +218,10 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
 def _run_seeds(args: argparse.Namespace, configs: list[SwarmConfig]) -> int:
     """Several seeds: batches of episodes stepped together, each written into DIR/s<seed> as
     soon as it is done (the same files as ``run --seed S --out DIR/s<seed>``)."""
+    from swarm_supervisor.engine.runner import run_batch
+    from swarm_supervisor.outputs.bag import BagRecorder, RecordError
+    from swarm_supervisor.outputs.episode_folder import write_episode
+
     folders = [args.out / f's{seed}' for seed in args.seed]
     times = configs[0].study.snapshot_times + (configs[0].episode.duration,)
     status = 0

@@ -9,17 +9,8 @@ import sys
 import time
 from pathlib import Path
 
-import pandas as pd
-
-from mona_controller import plugins
-from swarm_metrics.bags.checks import describe
 from swarm_supervisor import exits, study
-from swarm_supervisor.analysis.claims import all_claims
-from swarm_supervisor.analysis.report import analyse
 from swarm_supervisor.cli.arguments import bounded
-from swarm_supervisor.config import load_config
-from swarm_supervisor.outputs.guard import check_place
-from swarm_supervisor.outputs.lock import hold
 
 
 def register(subparsers) -> None:
@@ -86,6 +77,13 @@ def run(args: argparse.Namespace) -> int:
         0; 1 when --from-episodes finds an incomplete episode (without --allow-incomplete);
         130 / 143 when SIGINT / SIGTERM stopped the episodes (the kept ones are said).
     """
+    # Here, not at the top: ``--help`` and a refused argument need no analysis libraries.
+    import pandas as pd
+
+    from swarm_supervisor.analysis.claims import all_claims
+    from swarm_supervisor.analysis.report import analyse
+    from swarm_supervisor.config import load_config
+
     started = time.perf_counter()
     if args.from_episodes:
         return from_episodes(args, started)
@@ -120,6 +118,13 @@ def run(args: argparse.Namespace) -> int:
 
 def from_episodes(args: argparse.Namespace, started: float) -> int:
     """``--from-episodes``: check and analyse existing episode folders; run nothing."""
+    from mona_controller import plugins
+    from swarm_metrics.bags.checks import describe
+    from swarm_supervisor.analysis.claims import all_claims
+    from swarm_supervisor.analysis.report import analyse
+    from swarm_supervisor.outputs.guard import check_place
+    from swarm_supervisor.outputs.lock import hold
+
     unused = [flag for flag, value in (('--config', args.config), ('--quick', args.quick),
                                        ('--jobs', args.jobs), ('--batch-size', args.batch_size),
                                        ('--scheduler', args.scheduler), ('--bag', args.bag),

@@ -5,7 +5,10 @@ from swarm_supervisor.exports import lazy_exports
 _WHERE = {
     'animate': 'video',
     **dict.fromkeys(('AnimateError', 'Record', 'read_record'), 'recorded'),
-    **dict.fromkeys(('DEFAULT_PORT', 'LIVE_TOPICS', 'LiveServer', 'LiveView', 'announce'), 'live'),
+    **dict.fromkeys(('LIVE_TOPICS', 'LiveServer', 'LiveView', 'announce'), 'live'),
 }
-__all__ = sorted(_WHERE)
-__getattr__, __dir__ = lazy_exports(__name__, _WHERE)
+#: The live view's WebSocket port unless told (here, not in ``live``: the CLI's parsers name it
+#: without loading the Foxglove SDK).
+DEFAULT_PORT = 8765
+__all__ = sorted([*_WHERE, 'DEFAULT_PORT'])
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, here=['DEFAULT_PORT'])

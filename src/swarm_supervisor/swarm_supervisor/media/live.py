@@ -52,6 +52,7 @@ from mona_controller.topics import (
 from swarm_metrics.metrics import metric_names
 from swarm_supervisor.engine.episode import Episode, Step
 from swarm_supervisor.engine.runner import EpisodeObserver, Pacer
+from swarm_supervisor.media import DEFAULT_PORT
 from swarm_supervisor.media.relay import SDK_SUBPROTOCOL, Relay
 from swarm_supervisor.outputs.bag import EMBEDDED_MODE
 from swarm_world.messages.cdr import (
@@ -73,7 +74,6 @@ from swarm_world.timing import crossed
 #: Foxglove's WebSocket subprotocol as served by foxglove-sdk 0.30 (the relay in front of it
 #: also accepts its older name, :data:`swarm_supervisor.media.relay.LEGACY_SUBPROTOCOL`).
 SUBPROTOCOL = SDK_SUBPROTOCOL
-DEFAULT_PORT = 8765
 #: Frequent messages (poses, markers, states, clock) per wall second, at most.
 RATE = 10.0
 #: Statuses and metric samples per wall second, at most.

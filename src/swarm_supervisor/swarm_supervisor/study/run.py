@@ -23,6 +23,7 @@ from tqdm import tqdm
 from mona_controller.mappings import leaves
 from swarm_supervisor import outputs
 from swarm_supervisor.config import SwarmConfig, current_keys, mapping_value, write_ros_yaml
+from swarm_supervisor.study import DEFAULT_BATCH_SIZE
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.folder import (
     EPISODES_DIR,
@@ -35,7 +36,7 @@ from swarm_supervisor.study.interrupt import Interrupted, StopRequest
 from swarm_supervisor.study.local import available_cpus, run_local
 from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
-from swarm_supervisor.study.tasks import BAG_DIR, DEFAULT_BATCH_SIZE, EpisodeTask, make_batches
+from swarm_supervisor.study.tasks import BAG_DIR, EpisodeTask, make_batches
 from swarm_supervisor.study.validate import check_design
 
 VIDEOS_DIR = 'videos'  #: one video per design cell (``study --videos``)

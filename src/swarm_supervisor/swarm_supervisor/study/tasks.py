@@ -25,11 +25,6 @@ from swarm_supervisor.study import progress
 from swarm_supervisor.study.errors import EpisodeFailed
 
 BAG_DIR = 'bag'  #: an episode's bag, inside its folder (``study --bag``)
-#: Episodes a worker steps together by default (``--batch-size``): on the 2-core development
-#: machine the per-episode speed grows up to about 16 (N = 10: 390x alone, 1050x in 16s; N =
-#: 50: 240x, 480x) and no further (64: the same or a little slower, caches), and a batch of 16
-#: holds about 25 MB of cue maps and snapshots.
-DEFAULT_BATCH_SIZE = 16
 
 
 @dataclasses.dataclass(frozen=True)
