@@ -7,8 +7,9 @@ started once per pytest process by its first test; the modules using one are one
 work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in file order:
 
 - ``embedded_live``: ``mona-swarm run --live --bag --pace 3`` (N = 12, seed 2, 200 s, among
-  examples/obstacle_layout.yaml's obstacles): about 67 s of wall time, long enough for a page
-  to load and look while it runs on a busy 2-core machine.
+  examples/obstacle_layout.yaml's obstacles): about 67 s of wall time from its start. (The
+  browser's live test watches a run of its own, :func:`held_embedded_run`, whose episode
+  waits for the page: on a busy 2-core machine this one had ended before a page had loaded.)
 - ``node_live``: ``scripts/swarm.sh --live`` (lockstep, N = 8, seed 4, 120 s, the same
   obstacles): lockstep runs about as fast as real time here.
 
@@ -154,12 +155,13 @@ class SharedRun:
     duration: float
     out: Path              #: the run's output folder
     url: str               #: its live view
-    watcher: Watcher       #: a client that watched it from the start
+    watcher: Watcher | None  #: a client that watched it from the start (None: no such client)
     lingering: Callable[[float], object] = field(repr=False)  #: waits for the linger
 
     @property
     def watched(self) -> Capture:
         """What a client saw from the start (sim time 0 to :data:`WATCHED_NS`)."""
+        assert self.watcher is not None, 'no client watched this run'
         return self.watcher.result()
 
     def wait_lingering(self, timeout: float = 300.0) -> None:
@@ -175,12 +177,26 @@ def embedded_live_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Shar
     """The embedded runner's lingering live run: N = 12, seed 2, 200 s at pace 3, with a
     bag, among the example obstacles."""
     out = tmp_path_factory.mktemp('embedded_live') / 'run'
+    yield from _embedded_run(out, 200.0, '--bag', watched=True)
+
+
+def held_embedded_run(out: Path, duration: float) -> Iterator[SharedRun]:
+    """A lingering embedded live run (N = 12, seed 2, ``duration`` s at pace 3, among the
+    example obstacles) that holds its episode at t = 0 until a viewer has subscribed
+    (``--wait-for-viewer``): the test's own viewer sees it from its start, however long its
+    page takes to load."""
+    yield from _embedded_run(out, duration, '--wait-for-viewer', '600', watched=False)
+
+
+def _embedded_run(out: Path, duration: float, *extra: str, watched: bool
+                  ) -> Iterator[SharedRun]:
     live = LiveRun([str(MONA_SWARM), 'run', '--population', '12', '--seed', '2',
-                    '--duration', '200', '--out', str(out), '--bag', '--config', str(OBSTACLES),
-                    '--live', '--port', '0', '--pace', '3', '--linger', '900'])
+                    '--duration', f'{duration:g}', '--out', str(out), '--config', str(OBSTACLES),
+                    '--live', '--live-port', '0', '--pace', '3', '--linger', '900', *extra])
     try:
         live.url = live.wait_for('live view on ws://', 120).split('live view on ')[1].split()[0]
-        yield SharedRun(live, 12, 2, 200.0, out, live.url, Watcher(live.url, watched_enough),
+        yield SharedRun(live, 12, 2, duration, out, live.url,
+                        Watcher(live.url, watched_enough) if watched else None,
                         lambda timeout: live.wait_for('keeps serving its final state', timeout))
         record = text_of(out / 'episode.json')
     finally:

@@ -64,6 +64,11 @@ def status_seconds(text: str) -> float | None:
     return int(match.group(1)) / 1e9 if match else None
 
 
+def running_seconds(text: str) -> float | None:
+    """The sim time (s) of a status panel's text if it shows a running episode, else None."""
+    return status_seconds(text) if '"state": "running"' in text else None
+
+
 def clock_seconds(text: str) -> float | None:
     """Sim seconds of the playback clock's text (``12:02:30.000 AM UTC``: the time of day of
     a sim time near the epoch), or None when it shows none."""
@@ -189,6 +194,18 @@ class FoxgloveApp:
         path = self.shots / f'{name}.png'
         self.page.screenshot(path=str(path))
         return path
+
+    def sim_time_advances(self, duration: float, timeout: float = 30.0) -> tuple[float, float]:
+        """Right after :meth:`open`, while the episode runs: the sim time (s) of the running
+        status the status panel shows, and of a later status within ``timeout`` s (at most
+        ``duration``, the episode's end). Only the panel's text is read (no screenshots),
+        so a slow machine loses no time before both."""
+        first = self.wait_until(lambda: running_seconds(self.text(STATUS)),
+                                'the status of a running episode', timeout)
+        later = self.wait_until(lambda: (status_seconds(self.text(STATUS)) or 0) > first and
+                                status_seconds(self.text(STATUS)), 'a later status', timeout)
+        assert first < later <= duration, (first, later, duration)
+        return first, later
 
     def wait_until(self, condition, what: str, timeout: float = 60.0, every: float = 1.0):
         """Poll ``condition()`` (truthy result returned) until ``timeout`` seconds."""

@@ -210,3 +210,70 @@ def test_linger_without_live_is_refused(tmp_path):
         capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and '--linger is for --live' in result.stderr
     assert 'Traceback' not in result.stderr and not (tmp_path / 'x').exists()
+
+
+# --- before the episode: --wait-for-viewer --------------------------------------------------
+
+#: The outputs of an episode that are the same bit for bit on every run of it (episode.json
+#: also holds the wall time and the folder).
+EXACT_OUTPUTS = ('metrics.csv', 'snapshots.npz', 'final_cue_map.png', 'bag/bag.mcap',
+                 'bag/metadata.yaml')
+
+
+def lists_channels(url: str) -> None:
+    """Connect, read the server's info and its channels, and leave without subscribing."""
+    from websockets.sync.client import connect
+
+    with connect(url, subprotocols=[LEGACY_SUBPROTOCOL], open_timeout=30) as socket:
+        ops = {json.loads(socket.recv(timeout=30))['op'] for _ in range(2)}
+    assert ops == {'serverInfo', 'advertise'}
+
+
+def test_wait_for_viewer_holds_the_episode_until_a_client_subscribes(tmp_path):
+    """With --wait-for-viewer nothing runs, and nothing is written, until a client subscribes
+    (one that only connects and lists the channels is no viewer); the client then sees the
+    episode from t = 0, and the outputs are those of the same run without the option, bit
+    for bit."""
+    held, plain = tmp_path / 'held', tmp_path / 'plain'
+    process, url = start_run(held, '--bag', '--wait-for-viewer', '300', duration=3.0)
+    try:
+        waiting = process.stderr.readline()
+        assert f'waiting for a viewer on {url}' in waiting, waiting
+        lists_channels(url)
+        time.sleep(2.0)
+        assert process.poll() is None and not held.exists()  # held: --out not even made
+        seen = connect_when_up(url, seconds=120)  # subscribes to every channel
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert process.returncode == 0, stderr
+    assert 'a viewer has subscribed; the episode starts' in stderr
+    statuses = [json.loads(msg.data) for _, msg in seen.messages['/world/status']]
+    assert statuses[0]['step'] == 0 and statuses[-1]['state'] == 'finished'
+    assert seen.messages['/world/poses'][0][0] == 0  # the episode's first frame, t = 0
+    assert seen.messages['/episode'][0][0] == 0
+    other, url = start_run(plain, '--bag', duration=3.0)  # no client: it runs at once
+    _, stderr = other.communicate(timeout=120)
+    assert other.returncode == 0, stderr
+    for name in EXACT_OUTPUTS:
+        assert (held / name).read_bytes() == (plain / name).read_bytes(), name
+
+
+def test_wait_for_viewer_gives_up_when_no_viewer_comes(tmp_path):
+    started = time.monotonic()
+    process, url = start_run(tmp_path / 'run', '--wait-for-viewer', '1')
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 124, stderr
+    assert f'no viewer subscribed to the live view on {url} in 1 s (--wait-for-viewer)' \
+        in stderr and 'Traceback' not in stderr
+    assert not (tmp_path / 'run').exists()  # nothing written
+    assert time.monotonic() - started < 100
+
+
+def test_wait_for_viewer_without_live_is_refused(tmp_path):
+    result = subprocess.run(
+        [sys.executable, '-m', 'swarm_supervisor.cli', 'run', '--population', '3',
+         '--duration', '1', '--out', str(tmp_path / 'x'), '--wait-for-viewer'],
+        capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and '--wait-for-viewer is for --live' in result.stderr
+    assert 'Traceback' not in result.stderr and not (tmp_path / 'x').exists()

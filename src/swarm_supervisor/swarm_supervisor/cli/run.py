@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
 from mona_controller.schema import ParameterError
+from swarm_supervisor import exits
 from swarm_supervisor.cli.arguments import bounded, deprecated_alias, speed_cm_s
 from swarm_supervisor.media import DEFAULT_PORT
 from swarm_supervisor.outputs.guard import claim_output
@@ -28,6 +29,9 @@ if TYPE_CHECKING:
 # The engine, the live view (Foxglove), the bag writer and the pictures (matplotlib) are
 # imported where an episode runs, not here: ``--help`` and a refused argument or parameter
 # need none of them.
+
+#: Wall seconds ``--wait-for-viewer`` waits for a viewer by default.
+VIEWER_TIMEOUT = 600.0
 
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
@@ -71,6 +75,13 @@ def register(subparsers) -> None:
                         help='--live: after the episode, keep serving its final state for '
                              'SECONDS (default: until Ctrl-C, which then exits 0; the outputs '
                              'are written before)')
+    parser.add_argument('--wait-for-viewer', type=bounded(float, 0.0, 1e6), nargs='?',
+                        const=VIEWER_TIMEOUT, metavar='SECONDS',
+                        help='--live: hold the episode at t = 0 until a viewer (a Foxglove '
+                             'client) has subscribed to the live view, so it sees the whole '
+                             'episode however long it takes to connect; give up after SECONDS '
+                             f'(default {VIEWER_TIMEOUT:g}) with exit status {exits.TIMEOUT}, '
+                             'nothing written. The episode is the same bit for bit')
     parser.add_argument('--pace', type=bounded(float, 0.001, 1e6), metavar='X',
                         help='run at X times real time (e.g. 10: ten sim seconds per second), '
                              'to follow it live (default: as fast as possible)')
@@ -99,7 +110,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_seeds(args, configs)
     server = None
     if args.live:  # before --out is claimed: a busy port must not cost a record
-        from swarm_supervisor.media.live import LiveServer
+        from swarm_supervisor.media.live import LiveServer, announce
+        from swarm_supervisor.outputs.guard import check_output
 
         try:
             server = LiveServer(args.live_port)
@@ -107,6 +119,12 @@ def run(args: argparse.Namespace) -> int:
             print(f'mona-swarm run: error: {error}', file=sys.stderr)
             return 2
     try:
+        if server is not None:
+            check_output(args.out, overwrite=args.overwrite)  # refused before the wait
+            announce(server, 'mona-swarm run')
+            if args.wait_for_viewer is not None and \
+                    not wait_for_viewer(server, args.wait_for_viewer):
+                return exits.TIMEOUT
         # Every check is done before this: a refused run leaves --out as it was.
         claim_output(args.out, overwrite=args.overwrite)
         return _run_one(args, configs[0], server)
@@ -115,11 +133,27 @@ def run(args: argparse.Namespace) -> int:
             server.stop()
 
 
+def wait_for_viewer(server: LiveServer, seconds: float) -> bool:
+    """Hold the episode's start until a client subscribes to the live view, ``seconds`` at
+    most (each step of the episode is then served to it); whether one did (if not, the error
+    is printed)."""
+    print(f'mona-swarm run: waiting for a viewer on {server.url} (up to {seconds:g} s): the '
+          'episode starts once a Foxglove client subscribes', file=sys.stderr, flush=True)
+    if not server.wait_for_viewer(seconds):
+        print(f'mona-swarm run: error: no viewer subscribed to the live view on {server.url} '
+              f'in {seconds:g} s (--wait-for-viewer): the episode was not run, nothing was '
+              'written', file=sys.stderr, flush=True)
+        return False
+    print('mona-swarm run: a viewer has subscribed; the episode starts', file=sys.stderr,
+          flush=True)
+    return True
+
+
 def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer | None
              ) -> int:
     """One episode into the claimed --out, served live to ``server`` if there is one."""
     from swarm_supervisor.engine.runner import Pacer
-    from swarm_supervisor.media.live import LiveView, announce
+    from swarm_supervisor.media.live import LiveView
     from swarm_supervisor.outputs.bag import BagRecorder, RecordError
     from swarm_supervisor.outputs.episode_folder import write_episode
 
@@ -134,7 +168,6 @@ def _run_one(args: argparse.Namespace, config: SwarmConfig, server: LiveServer |
         observers.append(recorder)
     live = None
     if server is not None:
-        announce(server, 'mona-swarm run')
         live = LiveView(server, pace=args.pace)
         observers.append(live)
     elif args.pace is not None:
@@ -198,6 +231,9 @@ def episode_configs(args: argparse.Namespace) -> list[SwarmConfig]:
     if args.linger is not None and not args.live:
         raise ParameterError('--linger is for --live: it keeps the live view up after the '
                              'episode')
+    if args.wait_for_viewer is not None and not args.live:
+        raise ParameterError('--wait-for-viewer is for --live: it holds the episode until a '
+                             'viewer of the live view has subscribed')
     base = load_config(args.config)
     episode = {key: value for key, value in (('population', args.population),
                                               ('duration', args.duration))

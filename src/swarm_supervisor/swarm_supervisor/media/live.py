@@ -16,9 +16,12 @@ subscribes to (none connected: nothing is built), and at most ``rate`` times per
 or ``map_rate`` times (the cue map and grid, and only once the world would have published a
 new one).
 
-When the episode has ended, :meth:`LiveView.linger` keeps serving its final state (repeated
-once a second for clients that connect then) until a wall-clock limit or a stop, so a viewer
-is not cut off mid-look (``mona-swarm run --live --linger``).
+Before the episode, :meth:`LiveServer.wait_for_viewer` can hold its start until a client has
+subscribed, so a viewer whose page takes long to load sees it from t = 0 (``mona-swarm run
+--live --wait-for-viewer``). When the episode has ended, :meth:`LiveView.linger` keeps
+serving its final state (repeated once a second for clients that connect then) until a
+wall-clock limit or a stop, so a viewer is not cut off mid-look (``mona-swarm run --live
+--linger``).
 """
 
 from __future__ import annotations
@@ -84,6 +87,8 @@ MAP_RATE = 2.0
 CHECK_EVERY = 8
 #: Wall seconds between repeats of the announcement and the latest status, for late joiners.
 REPEAT_PERIOD = 1.0
+#: Wall seconds between looks for a subscribed client while the start is held.
+VIEWER_POLL = 0.05
 
 
 def live_topics() -> dict[str, str]:
@@ -162,6 +167,24 @@ class LiveServer:
         """Whether a client subscribes to ``topic`` (else building its message is wasted)."""
         channel = self.channels.get(topic)
         return channel is not None and channel.has_sinks()
+
+    def watched(self) -> bool:
+        """Whether a client subscribes to any channel: a viewer is watching (a client that
+        only connects, or only lists the channels, is not one)."""
+        return any(channel.has_sinks() for channel in self.channels.values())
+
+    def wait_for_viewer(self, timeout: float | None,
+                        stop: threading.Event | None = None) -> bool:
+        """Wait until a client subscribes to a channel (:meth:`watched`), at most ``timeout``
+        wall seconds (None: no limit) or until ``stop`` is set; whether one did."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        stop = stop or threading.Event()
+        while not self.watched():
+            wait = VIEWER_POLL if deadline is None else \
+                min(VIEWER_POLL, deadline - time.monotonic())
+            if wait <= 0 or stop.wait(wait):
+                return self.watched()
+        return True
 
     def publish(self, topic: str, log_ns: int, data: bytes | Callable[[], bytes]) -> None:
         """Send a message (CDR bytes, or a function making them, called only if wanted)."""
