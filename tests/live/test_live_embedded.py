@@ -94,7 +94,7 @@ def test_robots_arena_cue_and_sim_time(watched, embedded_live):
     assert status['state'] in ('running', 'finished') and status['mode'] == 'embedded'
 
 
-def test_the_obstacles_are_shown_as_the_bag_has_them(watched):
+def test_the_obstacles_are_shown_as_the_bag_has_them(watched, embedded_live):
     """The layout's eight obstacles on /world/obstacles, live as in the bag."""
     seen, out, _ = watched
     log_time, msg = seen.messages['/world/obstacles'][-1]
@@ -103,7 +103,8 @@ def test_the_obstacles_are_shown_as_the_bag_has_them(watched):
         [('obstacles', k, name) for k, name in enumerate(
             ['ring_0', 'ring_1', 'ring_2', 'ring_3', 'ring_4', 'ring_5', 'wall', 'wedge'])]
     assert [m.type for m in msg.markers] == [3] * 6 + [1, 11]  # cylinders, a cube, a prism
-    # The same shapes as the video reads from the bag.
+    # The same shapes as the video reads from the bag (closed once the episode has ended).
+    embedded_live.wait_lingering()
     assert obstacles_from_markers(msg.markers) == read_record(out).obstacles
 
 
