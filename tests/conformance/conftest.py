@@ -234,12 +234,29 @@ def start_world(processes: Processes, template: str, domain: int, params: Path =
 
 @pytest.fixture(scope='session')
 def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Run:
-    """Start the implementation and the controllers, play the scenario, stop everything."""
+    """Start the implementation and the controllers, play the scenario, stop everything.
+
+    A world that runs but is never discovered (no first /world/status in 60 s, the world
+    alive) is tried once more on a fresh private domain, with the first attempt's log and
+    graph in the record: CI saw this once in many runs on a busy 2-core machine, the world
+    logging "ready" while the probe's graph held no node of it."""
     name, chosen = implementation(request.config)
-    folder = tmp_path_factory.mktemp('conformance')
-    path = parameter_file(request.config, folder)
+    path = parameter_file(request.config, tmp_path_factory.mktemp('conformance'))
     params = yaml.safe_load(path.read_text())['/**']['ros__parameters']
     params.pop(PLUGINS, None)  # the probe announces the parameters alone
+    played = _play(name, chosen, path, params, tmp_path_factory.mktemp('conformance'))
+    if not played.probe.status and played.world_exit is None:
+        first = played
+        played = _play(name, chosen, path, params, tmp_path_factory.mktemp('conformance'))
+        played.scenario.log[:0] = [
+            f'first attempt: {"; ".join(first.scenario.log)}; the nodes the probe saw: '
+            f'{first.scenario.graph.get("nodes")}; its world log: {first.world_log[-1500:]}',
+            'second attempt, on a fresh private domain:']
+    return played
+
+
+def _play(name: str, chosen: Implementation, path: Path, params: dict, folder: Path) -> Run:
+    """One attempt of the scenario on a private domain of its own."""
     with private_domain() as domain, pytest.MonkeyPatch.context() as patch:
         env = ros_environment(domain)
         for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
@@ -259,10 +276,14 @@ def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
         scenario = Scenario(probe, executor, lambda: world.poll() is None)
         try:
             scenario.run()
-            if not probe.status and world.poll() is not None:
-                pytest.exit(f'{name}: the implementation exited with status {world.poll()} '
-                            f'before its first /world/status:\n'
-                            f'{processes.log("world")[-3000:]}', returncode=1)
+            if not probe.status:
+                if world.poll() is not None:
+                    pytest.exit(f'{name}: the implementation exited with status '
+                                f'{world.poll()} before its first /world/status:\n'
+                                f'{processes.log("world")[-3000:]}', returncode=1)
+                scenario.graph = {'nodes': probe.get_node_names_and_namespaces()}
+                return Run(name, chosen, params, probe, scenario, None,
+                           processes.log('world'), None)
             deadline = time.monotonic() + EXIT_TIMEOUT
             while time.monotonic() < deadline and (world.poll() is None
                                                    or controllers.poll() is None):
@@ -276,4 +297,3 @@ def run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
             processes.stop_all()
     return Run(name, chosen, params, probe, scenario, world_exit, processes.log('world'),
                controllers_exit)
-

@@ -28,11 +28,21 @@ def test_the_implementation_passes_every_rule(name):
         missing = [tool for tool in ('avr-gcc', 'make', 'cc') if shutil.which(tool) is None]
         if missing or not Path('/usr/include/simavr/sim_avr.h').exists():
             pytest.skip(f'{name} needs {missing or "simavr"}: make firmware-tools')
-    result = subprocess.run(
-        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
-         '-p', 'no:cacheprovider', '--world-cmd', name],
-        capture_output=True, text=True, timeout=600, cwd=HERE.parents[1])
-    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
+    command = [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
+               '-p', 'no:cacheprovider', '--world-cmd', name]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600,
+                            cwd=HERE.parents[1])
+    first = ''
+    if result.returncode != 0 and IMPLEMENTATIONS[name].mode == 'realtime':
+        # A realtime world does not wait for the suite's scripted robots: on a busy 2-core
+        # machine their answers can come later than `absent_after` steps (the probe shares a
+        # process with its records), so a robot the rules need counts absent. One more run,
+        # which must pass; a failure shows the first run's failures with the second's.
+        first = f'first run:\n{result.stdout[-3000:]}\nsecond run:\n'
+        print(first)
+        result = subprocess.run(command, capture_output=True, text=True, timeout=600,
+                                cwd=HERE.parents[1])
+    assert result.returncode == 0, first + result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
 
 

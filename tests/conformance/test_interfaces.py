@@ -326,7 +326,8 @@ def test_a_silent_robot_is_absent_listed_and_its_readings_go_on(run):
     stamps = {stamp for _, stamp, _ in run.readings(4, 'ground', 0)}
     assert len(silent & stamps) >= len(silent) * 0.9  # readings went on while it was silent
     # Kept still while absent.
-    poses = [run.poses_at(start + k * run.step_ns) for k in (ROBOT4_SILENT[0] + 5,
+    settled = ROBOT4_SILENT[0] + run.implementation.absent_after + 2
+    poses = [run.poses_at(start + k * run.step_ns) for k in (settled,
                                                              ROBOT4_SILENT[-1])]
     assert all(p is not None for p in poses)
     assert np.allclose(poses[0][4], poses[1][4], atol=run.implementation.pose_tolerance + 1e-9)
@@ -337,12 +338,16 @@ def test_an_absent_robots_cleaner_is_off(run):
     cleaner on, then it fell silent). `cleaner` is each robot's latest `Bool`: robot 3's, on
     from step 30, cleans."""
     start = run.window(0)[0]
-    silent_from = start + (ROBOT4_SILENT[0] + 3) * run.step_ns
+    silent_from = start + (ROBOT4_SILENT[0] + run.implementation.absent_after) * run.step_ns
     silent_to = start + ROBOT4_SILENT[-1] * run.step_ns
     assert ROBOT4_CLEANER_STEP < ROBOT4_SILENT[0]
     saw_robot3 = False
+    seen = []  # (step, the robots cleaning, or None: no poses near its stamp) for the message
     for _, stamp, poses in run.probe.cleaning:
         current = run.poses_near(stamp)
+        if start <= stamp <= run.window(0)[1]:
+            seen.append(((stamp - start) // run.step_ns, None if current is None else sorted(
+                int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses)))
         if not start <= stamp <= run.window(0)[1] or current is None:
             continue
         near = [int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses]
@@ -350,7 +355,10 @@ def test_an_absent_robots_cleaner_is_off(run):
             assert 4 not in near, f'absent robot 4 cleaned at {stamp}'
         if stamp > start + ROBOT3_CLEANS_FROM * run.step_ns:
             saw_robot3 |= 3 in near
-    assert saw_robot3, "robot 3's cleaner never showed in /world/cleaning"
+    absent = [(doc.get('step'), doc.get('absent')) for doc in run.statuses(0)]
+    assert saw_robot3, (f"robot 3's cleaner never showed in /world/cleaning; (step, robots "
+                        f"cleaning) of its ticks: {seen}; (step, absent) of the statuses: "
+                        f'{absent}')
 
 
 @pytest.mark.lockstep
