@@ -14,6 +14,7 @@ write it into the report, delete its row from "Numbers pending" and its id from
 from __future__ import annotations
 
 import functools
+import json
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -23,14 +24,22 @@ import pytest
 
 from swarm_supervisor.analysis.claims import paper_claims
 from swarm_supervisor.analysis.speed_effect import PAPER_RATIO, regime_table
+from swarm_supervisor.evolution.heldout import load_plan
 
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / 'docs' / 'reproduction.md'
 #: What `make run` (the paper's study) made, as shipped: its report.md, ANOVA tables, figures.
 STUDY = ROOT / 'docs' / 'media' / 'paper_study'
-#: The numbers the report will quote once the work they come from lands (the cooperation
-#: comparison); each is a row of the report's table "Numbers pending".
-PENDING = ('C1', 'C2', 'C3', 'C4', 'C5')
+#: What `mona-swarm heldout` made of the cooperation comparison (docs/learned.md), as shipped.
+HELDOUT = ROOT / 'docs' / 'media' / 'learned' / 'heldout'
+#: Its plan, which names the scenarios, N, the duration and the seeds.
+PLAN = ROOT / 'ros_ws' / 'config' / 'designs' / 'learned_heldout.yaml'
+#: The scenarios of eq. 3's cleaning the report quotes, and how it names them.
+EQ3 = {'paper': "the paper's arena", 'leaks': 'the moving leaks'}
+#: The numbers the report will quote once the work they come from lands; each is a row of
+#: the report's table "Numbers pending". None now: the cooperation comparison's C1 to C5
+#: landed and are quoted below.
+PENDING: tuple[str, ...] = ()
 
 
 @functools.cache
@@ -81,6 +90,44 @@ def speed_line() -> re.Match:
     return match
 
 
+@functools.cache
+def heldout() -> dict:
+    """The comparison's summary.json: scenario -> controllers' scores and paired tests."""
+    return json.loads((HELDOUT / 'summary.json').read_text())
+
+
+def solo_against_beeclust(scenario: str, score: str) -> dict:
+    return heldout()[scenario]['pairs']['solitary vs beeclust'][score]
+
+
+def the_same(values: list) -> object:
+    """The one value every entry has: the report writes it once for all."""
+    assert len(set(values)) == 1, values
+    return values[0]
+
+
+def cue_left(scenario: str) -> str:
+    controllers = heldout()[scenario]['controllers']
+    return (f'{EQ3[scenario]} BEECLUST {controllers["beeclust"]["final_mean"]:.3f}, the '
+            f'solitary rule {controllers["solitary"]["final_mean"]:.3f}')
+
+
+def eq3_tests() -> list[dict]:
+    return [solo_against_beeclust(scenario, score) for scenario in EQ3
+            for score in ('final', 'fitness')]
+
+
+def eq3_common(key: str, spec: str = '') -> str:
+    """``key`` of the solitary rule's tests against BEECLUST under eq. 3 (both scenarios,
+    both scores), formatted by ``spec``: one text for all four, as the report gives it."""
+    return str(the_same([format(test[key], spec) for test in eq3_tests()]))
+
+
+def heldout_tests() -> int:
+    """How many tests the comparison's Holm family holds."""
+    return sum(len(tests) for entry in heldout().values() for tests in entry['pairs'].values())
+
+
 def _claim_row(claim_id: str) -> Callable[[], str]:
     def text() -> str:
         ours, verdict = study_claims()[claim_id]
@@ -107,6 +154,20 @@ QUOTES: dict[str, Callable[[], str]] = {
     'paper ratio': lambda: f'{PAPER_RATIO:.3f}',
     **{f'regime {i}': functools.partial(lambda i: regime_table()[i], i)
        for i in range(len(regime_table()))},
+    'cooperation: the plan': lambda: (
+        f'N = {load_plan(PLAN).robots}, {load_plan(PLAN).duration:g} s, on '
+        f'{len(load_plan(PLAN).seeds)} held-out seeds'),
+    **{f'cooperation: cue left, {scenario}': functools.partial(cue_left, scenario)
+       for scenario in EQ3},
+    'cooperation: fitness': lambda: ', '.join(
+        ' and '.join(f'{heldout()[s]["controllers"][c]["fitness_mean"]:.3f}'
+                     for c in ('beeclust', 'solitary')) for s in EQ3),
+    'cooperation: seeds': lambda: (
+        f'the solitary rule leaves less: {eq3_common("a_lower")} of {eq3_common("seeds")} '
+        'on both'),
+    'cooperation: p': lambda: (
+        f'p = {eq3_common("p_value", ".2g")} for each, {eq3_common("p_holm", ".2g")} '
+        f"after Holm's adjustment over the comparison's {heldout_tests()} tests"),
 }
 
 
