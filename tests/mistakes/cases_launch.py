@@ -1,6 +1,6 @@
 """Mistakes with the node system (``scripts/swarm.sh``, ``mona-swarm launch``): each is refused
-before a node starts, in one line naming the option and the fix, in less than 10 s, with
-nothing written in ``--out``."""
+before a node starts, in one line naming the option and the fix, with nothing written in
+``--out``, within :data:`REFUSED_WITHIN`."""
 
 from __future__ import annotations
 
@@ -8,8 +8,10 @@ from pathlib import Path
 
 from mistake import SWARM_SH, Mistake
 
-#: A refusal starts no node: it takes a Python start and the checks, never a run.
-REFUSED_WITHIN = 10.0
+#: A refusal starts no node: it takes a Python start and the checks, never a run (about 2 s
+#: on an idle 2-core machine). The bound is a hang's, not a speed claim: four test workers on
+#: 2 cores took over 10 s in CI.
+REFUSED_WITHIN = 30.0
 
 
 def earlier_node_run(tmp: Path) -> None:

@@ -73,7 +73,10 @@ class Run:
         """Spin the system until ``condition()`` (the recorder spins in its own thread)."""
         deadline = time.monotonic() + timeout
         while not condition():
-            assert time.monotonic() < deadline, f'timed out after {timeout} s: {what}'
+            assert time.monotonic() < deadline, (
+                f'timed out after {timeout} s: {what} (the world {self.world.state.name} at '
+                f'step {self.world.world.steps}, held since {self.world.held_since}; the '
+                f'supervisor\'s status {self.supervisor.status})')
             self.executor.spin_once(timeout_sec=0.05)
             episode = self.metrics.recorder.episode
             if episode is not None and self.world.state is WorldState.RUNNING:

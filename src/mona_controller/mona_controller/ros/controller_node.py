@@ -19,7 +19,7 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import TwistStamped
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
@@ -42,7 +42,7 @@ from mona_controller.ros.messages import (
     stamp_to_ns,
 )
 from mona_controller.ros.ros_params import declare_plugins, declare_section
-from mona_controller.ros.shutdown import teardown
+from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 
 #: Wall seconds between checks that a world (or driver) listens to our commands.
@@ -267,7 +267,8 @@ def main(args: Sequence[str] | None = None) -> int:
         while not all(node.finished.done() for node in nodes):
             executor.spin_once()
         status = 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except STOPPED as error:
+        raise_unless_stopped(error)
         status = 0
     except ParameterError as error:
         logger.fatal(f'bad parameter: {error}')

@@ -84,7 +84,9 @@ import time
 from collections.abc import Iterable
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 #: Wall seconds a clean teardown may take before the stack is dumped: well under a second for
@@ -208,3 +210,18 @@ def teardown(nodes: Iterable[Node | None], timeout: float = TEARDOWN_TIMEOUT, *,
     # be gone before the launcher's SIGTERM 6 s later. Only cyclic garbage is left uncollected,
     # and the caller has closed every output.
     gc.freeze()
+
+
+#: What a signal raises out of a spinning executor: KeyboardInterrupt (SIGINT),
+#: ExternalShutdownException (rclpy's handler shut the context down), or RCLError "the given
+#: context is not valid" when that shutdown lands between the executor's check of the context
+#: and its wait set (seen on SIGTERM on a busy machine: the metrics node ended with a
+#: traceback). Catch it with :func:`raise_unless_stopped`.
+STOPPED = (KeyboardInterrupt, ExternalShutdownException, RCLError)
+
+
+def raise_unless_stopped(error: BaseException) -> None:
+    """Re-raise ``error`` (one of :data:`STOPPED`) unless a shutdown explains it: an RCLError
+    while the context is still up is a real error."""
+    if isinstance(error, RCLError) and rclpy.ok():
+        raise error

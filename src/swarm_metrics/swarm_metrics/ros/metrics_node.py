@@ -30,7 +30,6 @@ from pathlib import Path
 
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
 from std_msgs.msg import Float64, String
@@ -39,7 +38,7 @@ from mona_controller.contract import RecorderReport, RecorderState
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
-from mona_controller.ros.shutdown import teardown
+from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
 from swarm_metrics.bags.record import Closed, Row
@@ -328,7 +327,8 @@ def main(args: list[str] | None = None) -> int:
         node = MetricsNode()
         rclpy.spin_until_future_complete(node, node.done)
         status = node.done.result() if node.done.done() else 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except STOPPED as error:
+        raise_unless_stopped(error)
         status = 0
     except ParameterError as error:
         rclpy.logging.get_logger('metrics').fatal(f'bad parameter: {error}')

@@ -21,13 +21,12 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from geometry_msgs.msg import TwistStamped
-from rclpy.executors import ExternalShutdownException
 
 from mona_controller.contract import WorldState
 from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros.messages import stamp_to_ns
-from mona_controller.ros.shutdown import deliver, teardown
+from mona_controller.ros.shutdown import STOPPED, deliver, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError
 from swarm_world.hosting import hold_failure, hold_until_ns
 from swarm_world.params import WorldNodeParams, WorldParams
@@ -252,7 +251,8 @@ def run(make: Callable[[], EpisodeHost], name: str) -> int:
         rclpy.spin_until_future_complete(node, node.finished)
         status = node.exit_status
         deliver([node])  # the final status and state reach every reader, also one that lost them
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except STOPPED as error:
+        raise_unless_stopped(error)
         status = 0
     except ParameterError as error:
         rclpy.logging.get_logger(name).fatal(f'bad parameter: {error}')

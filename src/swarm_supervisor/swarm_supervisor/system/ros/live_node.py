@@ -28,14 +28,13 @@ import time
 
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
 
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
-from mona_controller.ros.shutdown import teardown
+from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
 from swarm_supervisor.system.processes import LIVE_READY
@@ -232,7 +231,8 @@ def main(args: list[str] | None = None) -> int:
         node = LiveNode()
         rclpy.spin_until_future_complete(node, node.done)
         status = node.done.result() if node.done.done() else 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except STOPPED as error:
+        raise_unless_stopped(error)
         status = 0
     except (ParameterError, RuntimeError) as error:
         rclpy.logging.get_logger('live').fatal(str(error))

@@ -28,7 +28,6 @@ from pathlib import Path
 
 import rclpy
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from std_msgs.msg import String
 
@@ -45,7 +44,7 @@ from mona_controller.controllers import states_of
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
-from mona_controller.ros.shutdown import teardown
+from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 from swarm_supervisor.config import SwarmConfig
 from swarm_supervisor.engine.episode import place_swarm
@@ -287,7 +286,8 @@ def main(args: Sequence[str] | None = None) -> int:
         node = Supervisor()
         node.run()
         status = 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except STOPPED as error:
+        raise_unless_stopped(error)
         status = 130
     except ParameterError as error:
         logger.fatal(f'bad parameter: {error}')
