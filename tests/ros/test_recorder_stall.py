@@ -76,7 +76,7 @@ class Run:
             assert time.monotonic() < deadline, (
                 f'timed out after {timeout} s: {what} (the world {self.world.state.name} at '
                 f'step {self.world.world.steps}, held since {self.world.held_since}; the '
-                f'supervisor\'s status {self.supervisor.status})')
+                f"supervisor's status {self.supervisor.status})")
             self.executor.spin_once(timeout_sec=0.05)
             episode = self.metrics.recorder.episode
             if episode is not None and self.world.state is WorldState.RUNNING:
