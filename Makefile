@@ -1,8 +1,9 @@
 # Two commands on a fresh machine:
 #   make run    set up the venv and run the paper's study with the embedded runner
 #   make test   what CI runs (.ci/run, with CI=true): set up the venv, lint (ruff), type-check
-#               every module but the ROS adapters, the pure cores strictly (mypy), install the firmware's Debian tools and the browser
-#               tests' tools if missing (make firmware-tools browser-tools), run every test on
+#               every module but the ROS adapters, the pure cores strictly (mypy), install the firmware's Debian tools, the browser
+#               tests' tools and iproute2 if missing (make firmware-tools browser-tools
+#               system-tools), run every test on
 #               TEST_JOBS parallel workers (tests/README.md)
 # and one for the inner loop:
 #   make check  lint, type-check and the unit tests (no ROS, no tools), in parallel
@@ -13,7 +14,7 @@ PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supe
 STUDY_OUT ?= results/study
 
 .PHONY: venv run test check lint typecheck bench sensitivity clean firmware-tools firmware \
-	browser-tools conformance
+	browser-tools system-tools conformance
 
 venv: $(VENV)/.installed
 
@@ -33,7 +34,7 @@ run: venv
 # at 36 % of real time, the browser's 30 s wait, two stalled-recorder moments); 2 workers
 # failed differently (under investigation).
 TEST_JOBS ?= 4
-test: lint typecheck firmware-tools browser-tools
+test: lint typecheck firmware-tools browser-tools system-tools
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
 
 check: lint typecheck
@@ -66,6 +67,10 @@ firmware-tools:
 
 browser-tools:
 	@FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' tests/install-tools.sh browser
+
+# iproute2's ip, for the node system across two network namespaces (tests/system/test_netns.py)
+system-tools:
+	@tests/install-tools.sh system
 
 # The classic Mona's firmware image (firmware/mona/mona.elf, mona.hex) and its simavr host
 # (firmware/sim/monasim); docs/link.md

@@ -3,6 +3,7 @@
 #   tests/install-tools.sh firmware   the firmware's Debian toolchain and simulator (docs/link.md)
 #   tests/install-tools.sh browser    Debian's chromium and the Foxglove web build (docs/bags.md)
 #   tests/install-tools.sh foxglove   the Foxglove web build alone
+#   tests/install-tools.sh system     iproute2, for the node system across network namespaces
 # Quick when present (dpkg-query, and a hash of the app's package.json and lock: 0.1 s).
 # Under CI=true a tool either installs or this exits 1, naming the tool, the command that
 # failed and the tail of its output. Elsewhere (a laptop without root) it only says so and
@@ -18,7 +19,9 @@ case "$what" in
             tests='the browser tests' ;;
   foxglove) packages=
             tests='the browser tests' ;;
-  *) echo "usage: $0 firmware|browser|foxglove" >&2; exit 2 ;;
+  system)   packages='iproute2'
+            tests='the network-namespace test (tests/system/test_netns.py)' ;;
+  *) echo "usage: $0 firmware|browser|foxglove|system" >&2; exit 2 ;;
 esac
 name="${what/foxglove/browser}-tools"
 case "${CI:-}" in ''|false|0|no) strict= ;; *) strict=1 ;; esac
@@ -46,7 +49,7 @@ trap 'rm -f "$log"' EXIT
 # --- Debian packages -------------------------------------------------------------------------
 # npm (the Foxglove build's installer) from Debian only where there is none (NodeSource's
 # nodejs package brings its own)
-[ "$what" != firmware ] && ! command -v npm >/dev/null && packages="$packages npm"
+case "$what" in browser|foxglove) ! command -v npm >/dev/null && packages="$packages npm" ;; esac
 missing=
 if [ -n "${packages// /}" ] && ! command -v dpkg-query >/dev/null; then
   give_up "no dpkg-query: install the Debian packages ${packages# } by hand"
@@ -70,7 +73,7 @@ if [ -n "$missing" ]; then
       give_up "\`$install\` failed (also after apt-get update)" "$log"
   fi
 fi
-[ "$what" != firmware ] || exit 0
+case "$what" in firmware|system) exit 0 ;; esac
 
 # --- the Foxglove web build, from npm into a cache outside the checkout ---------------------
 # Keyed by the content of package.json and package-lock.json together: a change to either

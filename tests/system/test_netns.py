@@ -43,7 +43,7 @@ def ip(*args: str) -> subprocess.CompletedProcess:
 def hosts() -> Iterator[tuple[str, str]]:
     """Two network namespaces (core, controllers) joined by a veth pair, removed afterwards."""
     if shutil.which('ip') is None:
-        pytest.skip('no ip command (iproute2) to make network namespaces')
+        pytest.skip('no ip command (iproute2) to make network namespaces: make system-tools')
     if os.geteuid() != 0:
         pytest.skip('network namespaces need root (ip netns add)')
     tag = os.getpid()
