@@ -29,10 +29,8 @@ run: venv
 	$(VENV)/bin/mona-swarm study --out $(STUDY_OUT)
 
 # pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
-# or a browser rather than compute (tests/README.md). On 2 cores (clean clone, 2026-12-03:
-# 24.7 min wall) four timing-bound tests still fail at times (a realtime firmware driver ran
-# at 36 % of real time, the browser's 30 s wait, two stalled-recorder moments); 2 workers
-# failed differently (under investigation).
+# or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
+# (2026-12-04): 23 min wall idle (pytest 1281 s), 29 min under ../shared/tools/under-load.
 TEST_JOBS ?= 4
 test: lint typecheck firmware-tools browser-tools system-tools
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)

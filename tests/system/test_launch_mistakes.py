@@ -62,5 +62,6 @@ def test_an_impossible_population_is_refused_before_any_node_starts(tmp_path: Pa
     assert 'does not fit' in done.stderr and '--population' in done.stderr
     assert 'Traceback' not in done.stderr
     assert not (out / 'processes.tsv').exists() and not (out / 'logs').exists()
-    assert time.monotonic() - began < 10
+    # About 2 s idle; the bound is a hang's (under load, beside three other workers, 25 s).
+    assert time.monotonic() - began < 40
 
