@@ -344,13 +344,14 @@ def test_an_absent_robots_cleaner_is_off(run):
     saw_robot3 = False
     seen = []  # (step, the robots cleaning, or None: no poses near its stamp) for the message
     for _, stamp, poses in run.probe.cleaning:
-        current = run.poses_near(stamp)
-        if start <= stamp <= run.window(0)[1]:
-            seen.append(((stamp - start) // run.step_ns, None if current is None else sorted(
-                int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses)))
-        if not start <= stamp <= run.window(0)[1] or current is None:
+        if not start <= stamp <= run.window(0)[1]:
             continue
-        near = [int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses]
+        current = run.poses_near(stamp)
+        near = None if current is None else sorted(
+            int(np.argmin(np.hypot(*(current[:, :2] - p[:2]).T))) for p in poses)
+        seen.append(((stamp - start) // run.step_ns, near))
+        if near is None:
+            continue
         if silent_from <= stamp <= silent_to:
             assert 4 not in near, f'absent robot 4 cleaned at {stamp}'
         if stamp > start + ROBOT3_CLEANS_FROM * run.step_ns:
