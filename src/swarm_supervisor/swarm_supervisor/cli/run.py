@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 #: Wall seconds ``--wait-for-viewer`` waits for a viewer by default.
 VIEWER_TIMEOUT = 600.0
 
+
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     parser = subparsers.add_parser(
