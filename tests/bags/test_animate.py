@@ -104,3 +104,29 @@ def test_gif_and_the_command_line(episode, tmp_path):
                              capture_output=True, text=True, timeout=120)
     assert missing.returncode == 2
     assert 'holds no bag' in missing.stderr and not (tmp_path / 'x.mp4').exists()
+
+
+def test_a_still_is_the_frame_at_its_time_and_a_bad_time_is_refused(episode, tmp_path):
+    record = read_record(episode)
+    out = tmp_path / 'still.png'
+    written = animate(episode, out, at=80.0, width=960)
+    still = imageio.imread(out)[..., :3]
+    expected = Renderer(record, width=960).render(80_000_000_000)
+    assert written['frames'] == 1 and written['first_s'] == 80.0
+    assert still.shape == expected.shape == (544, 960, 3)  # height 9/16, a multiple of 16
+    assert (still == expected).all()  # PNG is lossless: exactly the frame at 80 s
+    # The command line: the end by default; a time outside the episode, or a time for a
+    # video, refused with nothing written.
+    end = tmp_path / 'end.png'
+    result = subprocess.run([sys.executable, '-m', 'swarm_supervisor.cli', 'animate',
+                             str(episode), '--out', str(end)],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert 'a still (1280x720) at t = 160 s of 160 s' in result.stdout
+    for args, says in ((['--out', str(tmp_path / 'late.png'), '--at', '161'], 'outside'),
+                       (['--out', str(tmp_path / 'v.gif'), '--at', '5'], 'for a still (.png)')):
+        refused = subprocess.run([sys.executable, '-m', 'swarm_supervisor.cli', 'animate',
+                                  str(episode), *args], capture_output=True, text=True,
+                                 timeout=120)
+        assert refused.returncode == 2 and says in refused.stderr, refused.stderr
+        assert not Path(args[1]).exists()

@@ -36,6 +36,8 @@ from swarm_world.field import CueField
 from swarm_world.messages.markers import COLOUR as OBSTACLE_RGBA
 
 ASPECT = 16 / 9
+#: Frame widths by output kind when none is given: a still is looked at closely.
+DEFAULT_WIDTH = {'.mp4': 1024, '.gif': 640, '.png': 1280}
 #: The vertical pitch and height of the metric plots (figure fractions): three fill the
 #: column; more share it.
 PLOT_PITCH, PLOT_HEIGHT, PLOT_COLUMN = 0.27, 0.22, 0.81
@@ -49,6 +51,20 @@ OBSTACLE_EDGE = (64, 64, 64)
 def _pixel(colour: tuple[float, ...]) -> np.ndarray:
     """An RGBA colour in [0, 1] as an RGB pixel."""
     return (np.array(colour[:3]) * 255).astype(np.uint8)
+
+
+def still_time(duration_ns: int, at: float | None) -> int:
+    """The sim time (ns) of a still at ``at`` seconds (None: the end).
+
+    Raises:
+        AnimateError: ``at`` outside the episode.
+    """
+    if at is None:
+        return duration_ns
+    if not 0.0 <= at <= duration_ns / 1e9:
+        raise AnimateError(f"the still's time {at:g} s is outside the episode "
+                           f'(0 to {duration_ns / 1e9:g} s)')
+    return round(at * 1e9)
 
 
 def frame_times(duration_ns: int, speedup: float, fps: float) -> np.ndarray:
@@ -279,20 +295,23 @@ class Renderer:
 
 
 def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: float = 25.0,
-            width: int | None = None,
+            width: int | None = None, at: float | None = None,
             progress: Callable[[int, int], None] | None = None) -> dict:
-    """Render the episode of a bag (or an episode folder holding ``bag/``) into a video.
+    """Render the episode of a bag (or an episode folder holding ``bag/``) into a video, or
+    one frame of it into a still picture.
 
     Args:
         path: an episode folder, a bag directory or its .mcap.
-        out: ``.mp4`` (H.264) or ``.gif``.
+        out: ``.mp4`` (H.264), ``.gif``, or ``.png`` (one frame, at ``at``).
         speedup: sim seconds per video second.
         fps: frames per video second.
-        width: frame width in pixels (default 1024 for MP4, 640 for GIF).
+        width: frame width in pixels (default 1024 for MP4, 640 for GIF, 1280 for PNG).
+        at: a still's sim time in seconds (default: the end); only for ``.png``.
         progress: called with (frames done, frames in all) after each frame.
 
     Returns:
-        What was written: path, frames, fps, speedup, width, height, seconds of sim time.
+        What was written: path, frames, fps, speedup, width, height, seconds of sim time
+        (``duration_s``) and the first frame's time (``first_s``: a still's time).
 
     Raises:
         AnimateError: bad input or output name.
@@ -300,11 +319,17 @@ def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: f
     """
     out = Path(out)
     kind = out.suffix.lower()
-    if kind not in ('.mp4', '.gif'):
-        raise AnimateError(f'{out}: the video must end in .mp4 or .gif')
+    if kind not in DEFAULT_WIDTH:
+        raise AnimateError(f'{out}: the output must end in .mp4 or .gif (a video) or .png '
+                           '(a still)')
+    if at is not None and kind != '.png':
+        raise AnimateError(f'{out}: a time (at = {at:g} s) is for a still (.png), not a video')
     record = read_record(path)
-    renderer = Renderer(record, width or (1024 if kind == '.mp4' else 640))
-    times = frame_times(record.duration_ns, speedup, fps)
+    renderer = Renderer(record, width or DEFAULT_WIDTH[kind])
+    if kind == '.png':
+        times = np.array([still_time(record.duration_ns, at)], dtype=np.int64)
+    else:
+        times = frame_times(record.duration_ns, speedup, fps)
     out.parent.mkdir(parents=True, exist_ok=True)
     partial = out.with_name(out.stem + '.partial' + out.suffix)
     done = 0
@@ -320,15 +345,17 @@ def animate(path: str | Path, out: str | Path, *, speedup: float = 100.0, fps: f
     try:
         if kind == '.mp4':
             _write_mp4(partial, counted(), fps)
-        else:
+        elif kind == '.gif':
             _write_gif(partial, counted(), fps)
+        else:
+            Image.fromarray(next(counted())).save(partial, format='PNG', optimize=True)
     except BaseException:
         partial.unlink(missing_ok=True)  # no half video left behind
         raise
     partial.replace(out)  # a video is there only once it is whole
     return {'path': str(out), 'frames': len(times), 'fps': fps, 'speedup': speedup,
             'width': renderer.width, 'height': renderer.height,
-            'duration_s': record.duration_ns / 1e9}
+            'duration_s': record.duration_ns / 1e9, 'first_s': int(times[0]) / 1e9}
 
 
 def _write_mp4(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
