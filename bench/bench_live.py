@@ -7,7 +7,7 @@ it: the viewer, Foxglove, is another program), and prints
 each runner's sim seconds per wall second and the live view's cost in percent of the
 embedded runner's speed, three ways: from the wall clock, from the runner process's CPU time
 (the live server's threads included), and as the share of the run spent in the live view's
-own code in the runner's thread. The issue's bound: at most 10 %. A benchmark, not a test:
+own code in the runner's thread. The bound we hold it to: at most 10 %. A benchmark, not a test:
 on a shared 2-core machine other processes (the client's among them) make the wall-clock
 figures noisy; the share of the live view's own code is the steadiest of the three.
 

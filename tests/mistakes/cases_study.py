@@ -1,5 +1,5 @@
 """Mistakes with ``mona-swarm study``: designs that cannot run, a folder of another design,
-an analysis too small for an ANOVA (issue 20)."""
+an analysis too small for an ANOVA."""
 
 from __future__ import annotations
 

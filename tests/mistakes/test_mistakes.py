@@ -1,6 +1,6 @@
 """The mistakes table: ordinary mistakes a user makes, each refused (or handled) with the
 right exit status and a one-line message naming the key and the fix, and, where refused,
-nothing written: every watched folder byte-identical before and after (issue 20)."""
+nothing written: every watched folder byte-identical before and after."""
 
 from __future__ import annotations
 

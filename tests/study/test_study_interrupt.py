@@ -1,6 +1,6 @@
 """Stopping a study keeps every finished episode: Ctrl-C as a real signal to a real
 ``mona-swarm study`` process, then the same command again, and the result byte-identical to
-a study that was never stopped (issue 20)."""
+a study that was never stopped."""
 
 from __future__ import annotations
 

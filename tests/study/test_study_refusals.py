@@ -1,5 +1,5 @@
 """What a study refuses before anything runs (a design that cannot run, a folder of another
-design or of another kind), --overwrite, and a study too small for an ANOVA (issue 20)."""
+design or of another kind), --overwrite, and a study too small for an ANOVA."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""scripts/swarm.sh when the user makes a mistake (issue 20): a run stopped during its
+"""scripts/swarm.sh when the user makes a mistake: a run stopped during its
 start-up is gone within 15 s, and a run that cannot work is refused before a node starts."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Large swarms (issue 13): the fast IR sensing, coherency and placement equal their brute-force
+"""Large swarms: the fast IR sensing, coherency and placement equal their brute-force
 versions on random swarms, and a short N = 2,000 episode keeps the invariants of small ones."""
 
 from __future__ import annotations

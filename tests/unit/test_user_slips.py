@@ -1,4 +1,4 @@
-"""Slips a user makes in units, shapes and sizes get a message that says the fix (issue 20):
+"""Slips a user makes in units, shapes and sizes get a message that says the fix:
 a CLI speed in m/s, an m/s parameter in cm/s, a flat parameter file, too many robots."""
 
 from __future__ import annotations
