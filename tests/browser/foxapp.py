@@ -18,6 +18,7 @@ from urllib.parse import urlencode
 
 import numpy as np
 from PIL import Image
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 #: The layout's panels the checks read (their ids in ros_ws/config/foxglove_layout.json).
 SCENE, CUE_MAP, EPISODE, STATUS = '3D!arena', 'ImageViewPanel!cue', 'RawMessages!episode', \
@@ -115,13 +116,25 @@ class FoxgloveApp:
         """Load ``url`` and wait until the data source is up and every panel of the layout
         is mounted; returns the seconds it took."""
         start = time.monotonic()
-        self.page.goto(url, wait_until='load', timeout=timeout * 1000)
         deadline = start + timeout
-        for panel in (SCENE, CUE_MAP, EPISODE, STATUS):
-            self.panel(panel).wait_for(timeout=max(1.0, deadline - time.monotonic()) * 1000)
-        # The data source sidebar lists topics once the player is up.
-        self.page.get_by_text('/world/status', exact=True).first.wait_for(
-            timeout=max(1.0, deadline - time.monotonic()) * 1000)
+        waiting_for = 'the page to load'
+        try:
+            self.page.goto(url, wait_until='load', timeout=timeout * 1000)
+            for panel in (SCENE, CUE_MAP, EPISODE, STATUS):
+                waiting_for = f'panel {panel} to mount'
+                self.panel(panel).wait_for(
+                    timeout=max(1.0, deadline - time.monotonic()) * 1000)
+            # The data source sidebar lists topics once the player is up.
+            waiting_for = 'the data source to list /world/status'
+            self.page.get_by_text('/world/status', exact=True).first.wait_for(
+                timeout=max(1.0, deadline - time.monotonic()) * 1000)
+        except PlaywrightTimeout as error:
+            # What the page showed and said: the next failure names its cause.
+            shot = self.save('open_timed_out')
+            said = '\n'.join(self.console[-15:]) or '(nothing)'
+            raise AssertionError(
+                f'{url}: waited {time.monotonic() - start:.0f} s for {waiting_for}; the page '
+                f'is in {shot}; its last console messages:\n{said}') from error
         error = self.page.evaluate('window.monaSwarmMountError || ""')
         if error:
             raise RuntimeError(f'the page could not mount the app: {error}')
