@@ -1,6 +1,7 @@
 """The conformance suite's own rclpy node: it announces the episodes and records everything a
 world-side implementation publishes; two robots' scripted controllers (scripted.py) answer from
-a process of their own, so that no answer waits behind the recording on a loaded machine.
+a process of their own, so that no answer waits behind the recording on a loaded machine, and
+record their own readings, which the probe reads back (``Probe.take_record``).
 
 Written against docs/interfaces.md with plain rclpy and the standard messages, not with the
 project's decoding helpers (mona_controller.ros.messages, .ros.qos, .contract), so that the suite
@@ -23,6 +24,7 @@ and 4 by scripted.py, with this module's constants:
 
 from __future__ import annotations
 
+import base64
 import copy
 import json
 import time
@@ -36,6 +38,7 @@ from nav_msgs.msg import OccupancyGrid
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import String, UInt8MultiArray
@@ -119,8 +122,7 @@ class Probe(Node):
         self.robot_states: list[tuple[float, np.ndarray]] = []  #: (received, states)
         #: (robot, step) -> wall s of a scripted robot's answer (scripted.py's record)
         self.sent: dict[tuple[int, int], float] = {}
-        #: robot -> wall s the first subscription to its readings was made (this probe's, or
-        #: for a scripted robot scripted.py's if that came first: the world sees either)
+        #: robot -> wall s its subscriptions were made (a scripted robot's: scripted.py's)
         self.listening: dict[int, float] = {}
         self.frames: set[tuple[str, str]] = set()  #: (topic, frame_id) seen
         self.create_subscription(PoseArray, '/world/poses', self._on_poses, qos(1000))
@@ -142,12 +144,13 @@ class Probe(Node):
                                      lambda msg, name=name: self.latched[name].append(
                                          (self.clock(), msg)), profile)
         self.episode_pub = self.create_publisher(String, '/episode', qos(1, latched=True))
-        # The controllers' per-robot readings too (robots 0-2), as a second listener; the
-        # scripted robots' from when they listen themselves (Scenario.run).
+        # The controllers' per-robot readings too (robots 0-2), as a second listener. Not the
+        # scripted robots': theirs is the one subscription each that the world waits for
+        # (scripted.py makes it 1 s after the announcement and records what comes); a second
+        # one here would let the world start before they listen, or before this one's
+        # proximity matched, so that it missed the first readings.
         for robot in CONTROLLED:
             self._listen(robot)
-        self.pending: list[tuple[float, Callable[[], None]]] = []  # (due wall s, action)
-        self.create_timer(0.01, self._run_pending)
 
     # --- recording ----------------------------------------------------------------------
 
@@ -177,17 +180,6 @@ class Probe(Node):
     def _on_clock(self, msg: Clock) -> None:
         self.clock_ns.append((self.clock(), ns_of(msg.clock)))
 
-    def _run_pending(self) -> None:
-        now = self.clock()
-        due = [action for when, action in self.pending if when <= now]
-        self.pending = [(when, action) for when, action in self.pending if when > now]
-        for action in due:
-            action()
-
-    def later(self, delay: float, action: Callable[[], None]) -> None:
-        """Run ``action`` ``delay`` wall seconds from now (in the executor)."""
-        self.pending.append((self.clock() + delay, action))
-
     # --- episodes -----------------------------------------------------------------------
 
     def announce(self, document: dict) -> float:
@@ -205,19 +197,25 @@ class Probe(Node):
                    for info in self.get_subscriptions_info_by_topic('/episode'))
 
     def take_record(self, path: Path) -> None:
-        """Take in scripted.py's record (JSON lines): its answers' times, and when it subscribed
-        to a robot's readings if that was before this probe did (nothing if it wrote none)."""
+        """Take in scripted.py's record (JSON lines): when each scripted robot subscribed, the
+        readings it received (when, stamp, the message) and when it answered each step
+        (nothing if it wrote none)."""
+        types = {'ground': Image, 'proximity': LaserScan}
         lines = path.read_text().splitlines() if path.exists() else []
         for line in lines:
             try:
                 item = json.loads(line)
             except json.JSONDecodeError:
                 continue  # a line cut short by a kill
-            if 'sent' in item:
+            if 'reading' in item:
+                robot, kind = item['reading']
+                msg = deserialize_message(base64.b64decode(item['cdr']), types[kind])
+                self.readings.setdefault((robot, kind), []).append(
+                    (item['at'], ns_of(msg.header.stamp), msg))
+            elif 'sent' in item:
                 self.sent[tuple(item['sent'])] = item['at']
             elif 'listening' in item:
-                robot = item['listening']
-                self.listening[robot] = min(item['at'], self.listening.get(robot, item['at']))
+                self.listening[item['listening']] = item['at']
 
     def endpoints(self) -> dict:
         """What the ROS graph says about every contract topic now: names and types, and per
@@ -307,9 +305,6 @@ class Scenario:
                                'the scripted robots (scripted.py) on /episode'):
             return
         self.marks['announced_0'] = probe.announce(first)
-        for robot in SCRIPTED:  # when they listen themselves (scripted.py): not earlier, or
-            # the world would count their controllers listening before they do
-            probe.later(ROBOT3_LISTENS_AFTER, lambda robot=robot: probe._listen(robot))
         if not self.spin_until(self.status_of(0, 'running', 'finished', 'failed'), 90,
                                'episode 0 running'):
             return

@@ -5,9 +5,13 @@ backlog queued the scripted robots' answers behind it when one executor did both
 realtime world, which does not wait, counted robot 3 absent. Here the two robots answer from
 their own process, rclpy context and executor: they learn each episode from ``/episode``
 (transient local) as a controller does, and do what probe.py's module docstring says, with
-its constants. What the rules need to know of them (when a robot subscribed to its readings,
-when it answered a step) goes to ``--record`` as JSON lines, read back by the probe
-(``Probe.take_record``).
+its constants. What the rules need to know of them goes to ``--record`` as JSON lines, read
+back by the probe (``Probe.take_record``): when a robot subscribed to its readings, every
+reading it received (when, and the message), when it answered a step. The readings are
+recorded here, not by a subscription of the probe's: each robot's one subscription is the one
+the world waits for, made 1 s after the announcement (a second, the probe's, would let the
+world start before the robot listens, or before the probe's own proximity subscription
+matched, losing it the first readings: seen on the realtime world under load).
 
 The process exits 0 on the shutdown announcement, on SIGINT or SIGTERM, and when its parent
 (``--parent``, the process that started it) is gone::
@@ -18,6 +22,7 @@ The process exits 0 on the shutdown announcement, on SIGINT or SIGTERM, and when
 from __future__ import annotations
 
 import argparse
+import base64
 import json
 import os
 import sys
@@ -30,6 +35,7 @@ import rclpy
 from geometry_msgs.msg import TwistStamped
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import Bool, String, UInt8
 
@@ -107,15 +113,18 @@ class ScriptedRobots(Node):
 
     def _listen(self, robot: int) -> None:
         self.note(listening=robot, at=self.clock())
-        self.create_subscription(Image, f'/mona_{robot}/ground',
-                                 lambda msg, robot=robot: self._on_ground(robot, msg),
-                                 qos(LISTENER_DEPTH))
-        self.create_subscription(LaserScan, f'/mona_{robot}/proximity', lambda msg: None,
-                                 qos(LISTENER_DEPTH))
+        for kind, msg_type in (('ground', Image), ('proximity', LaserScan)):
+            self.create_subscription(
+                msg_type, f'/mona_{robot}/{kind}',
+                lambda msg, robot=robot, kind=kind: self._on_reading(robot, kind, msg),
+                qos(LISTENER_DEPTH))
 
-    def _on_ground(self, robot: int, msg: Image) -> None:
-        if self.episode is not None:
-            self._answer(robot, ns_of(msg.header.stamp))
+    def _on_reading(self, robot: int, kind: str, msg) -> None:
+        received = self.clock()
+        if kind == 'ground' and self.episode is not None:
+            self._answer(robot, ns_of(msg.header.stamp))  # first: the record can wait
+        self.note(reading=[robot, kind], at=received,
+                  cdr=base64.b64encode(serialize_message(msg)).decode('ascii'))
 
     def _answer(self, robot: int, stamp: int) -> None:
         start = self.episode['start_ns']
