@@ -18,6 +18,7 @@ import dataclasses
 import math
 import os
 import shlex
+import sys
 import time
 from pathlib import Path
 
@@ -269,6 +270,12 @@ def _play(name: str, chosen: Implementation, path: Path, params: dict, folder: P
         controllers = processes.spawn(['mona_controller_node', '--robots', robots,
                                        '--ros-args', '--params-file', str(path)],
                                       'controllers')
+        # Robots 3 and 4 answer from a process of their own: not behind the probe's records.
+        record = folder / 'scripted.jsonl'
+        step_ns = round(params['world']['step_period'] * 1e9)
+        scripted = processes.spawn(
+            [sys.executable, str(HERE / 'scripted.py'), '--domain', str(domain), '--step-ns',
+             str(step_ns), '--record', str(record), '--parent', str(os.getpid())], 'scripted')
         context = init_context(domain)
         probe = Probe(params, context=context)
         executor = SingleThreadedExecutor(context=context)
@@ -285,15 +292,19 @@ def _play(name: str, chosen: Implementation, path: Path, params: dict, folder: P
                 return Run(name, chosen, params, probe, scenario, None,
                            processes.log('world'), None)
             deadline = time.monotonic() + EXIT_TIMEOUT
-            while time.monotonic() < deadline and (world.poll() is None
-                                                   or controllers.poll() is None):
+            while time.monotonic() < deadline and any(
+                    process.poll() is None for process in (world, controllers, scripted)):
                 spin_briefly(executor, 0.1)
             world_exit, controllers_exit = world.poll(), controllers.poll()
+            if scripted.poll() != 0:
+                scenario.log.append(f'the scripted robots (scripted.py) exited with '
+                                    f'{scripted.poll()}: {processes.log("scripted")[-1500:]}')
         finally:
             executor.remove_node(probe)
             probe.destroy_node()
             executor.shutdown()
             rclpy.try_shutdown(context=context)
-            processes.stop_all()
+            processes.stop_all()  # the scripted robots too, whatever happened
+        probe.take_record(record)
     return Run(name, chosen, params, probe, scenario, world_exit, processes.log('world'),
                controllers_exit)

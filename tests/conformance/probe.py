@@ -1,12 +1,14 @@
-"""The conformance suite's own rclpy node: it announces the episodes, plays two robots' scripted
-controllers and records everything a world-side implementation publishes.
+"""The conformance suite's own rclpy node: it announces the episodes and records everything a
+world-side implementation publishes; two robots' scripted controllers (scripted.py) answer from
+a process of their own, so that no answer waits behind the recording on a loaded machine, and
+record their own readings, which the probe reads back (``Probe.take_record``).
 
 Written against docs/interfaces.md with plain rclpy and the standard messages, not with the
 project's decoding helpers (mona_controller.ros.messages, .ros.qos, .contract), so that the suite
 checks an implementation, and those helpers, independently.
 
 The scenario (``Scenario.run``), with robots 0-2 run by real controller nodes and robots 3
-and 4 by this probe:
+and 4 by scripted.py, with this module's constants:
 
 - **episode 0** (the rules' episode): robot 3 subscribes to its readings only 1 s after the
   announcement, answers step 0 only after 2.5 s, answers step 10 once stamped for another
@@ -22,26 +24,31 @@ and 4 by this probe:
 
 from __future__ import annotations
 
+import base64
 import copy
 import json
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import rclpy
-from geometry_msgs.msg import PoseArray, TwistStamped
+from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import OccupancyGrid
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, LaserScan
-from std_msgs.msg import Bool, String, UInt8, UInt8MultiArray
+from std_msgs.msg import String, UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
 POPULATION = 5
 CONTROLLED = (0, 1, 2)  #: robots whose controller is the real mona_controller_node
-SCRIPTED = (3, 4)  #: robots this probe answers for
+SCRIPTED = (3, 4)  #: robots scripted.py answers for
+#: The scripted robots' node (scripted.py), which the probe waits for before the first episode.
+SCRIPTED_NODE = 'conformance_scripted'
 
 #: Episode 0's poses (x, y, yaw): robot 0 with the wall y = 0 on its right, robots 1 and 2
 #: face to face 2 cm apart on the cue's slope, robot 3 with the wall x = 0 on its left, robot 4
@@ -97,7 +104,7 @@ def poses_of(msg: PoseArray) -> np.ndarray:
 
 
 class Probe(Node):
-    """Records the world's topics and answers for the scripted robots."""
+    """Records the world's topics (the scripted robots answer in scripted.py)."""
 
     def __init__(self, params: dict, **kwargs) -> None:
         super().__init__('conformance_probe', **kwargs)
@@ -113,10 +120,11 @@ class Probe(Node):
         self.latched: dict[str, list] = {'cue_map': [], 'cue_grid': [], 'markers': [],
                                          'obstacles': [], 'sources': []}
         self.robot_states: list[tuple[float, np.ndarray]] = []  #: (received, states)
-        self.sent: dict[tuple[int, int], float] = {}  #: (robot, step) -> wall s of its answer
-        self.listening: dict[int, float] = {}  #: robot -> wall s its subscriptions were made
+        #: (robot, step) -> wall s of a scripted robot's answer (scripted.py's record)
+        self.sent: dict[tuple[int, int], float] = {}
+        #: robot -> wall s its subscriptions were made (a scripted robot's: scripted.py's)
+        self.listening: dict[int, float] = {}
         self.frames: set[tuple[str, str]] = set()  #: (topic, frame_id) seen
-        self.episode = None  #: the announcement being played
         self.create_subscription(PoseArray, '/world/poses', self._on_poses, qos(1000))
         self.create_subscription(PoseArray, '/world/cleaning', self._on_cleaning, qos(1000))
         self.create_subscription(String, '/world/status', self._on_status,
@@ -136,18 +144,13 @@ class Probe(Node):
                                      lambda msg, name=name: self.latched[name].append(
                                          (self.clock(), msg)), profile)
         self.episode_pub = self.create_publisher(String, '/episode', qos(1, latched=True))
-        # The controllers' per-robot readings too (robots 0-2), as a second listener.
+        # The controllers' per-robot readings too (robots 0-2), as a second listener. Not the
+        # scripted robots': theirs is the one subscription each that the world waits for
+        # (scripted.py makes it 1 s after the announcement and records what comes); a second
+        # one here would let the world start before they listen, or before this one's
+        # proximity matched, so that it missed the first readings.
         for robot in CONTROLLED:
             self._listen(robot)
-        self.cmd_pubs = {robot: self.create_publisher(
-            TwistStamped, f'/mona_{robot}/cmd_vel', qos(5)) for robot in SCRIPTED}
-        self.state_pubs = {robot: self.create_publisher(
-            UInt8, f'/mona_{robot}/state', qos(1, latched=True)) for robot in SCRIPTED}
-        self.cleaner_pubs = {robot: self.create_publisher(
-            Bool, f'/mona_{robot}/cleaner', qos(1, latched=True)) for robot in SCRIPTED}
-        self.answered: dict[int, set[int]] = {robot: set() for robot in SCRIPTED}
-        self.pending: list[tuple[float, Callable[[], None]]] = []  # (due wall s, action)
-        self.create_timer(0.01, self._run_pending)
 
     # --- recording ----------------------------------------------------------------------
 
@@ -161,10 +164,7 @@ class Probe(Node):
                 qos(LISTENER_DEPTH))
 
     def _on_reading(self, robot: int, kind: str, msg) -> None:
-        stamp = ns_of(msg.header.stamp)
-        self.readings[(robot, kind)].append((self.clock(), stamp, msg))
-        if kind == 'ground' and robot in SCRIPTED and self.episode is not None:
-            self._answer(robot, stamp)
+        self.readings[(robot, kind)].append((self.clock(), ns_of(msg.header.stamp), msg))
 
     def _on_poses(self, msg: PoseArray) -> None:
         self.poses.append((self.clock(), ns_of(msg.header.stamp), poses_of(msg)))
@@ -180,66 +180,10 @@ class Probe(Node):
     def _on_clock(self, msg: Clock) -> None:
         self.clock_ns.append((self.clock(), ns_of(msg.clock)))
 
-    def _run_pending(self) -> None:
-        now = self.clock()
-        due = [action for when, action in self.pending if when <= now]
-        self.pending = [(when, action) for when, action in self.pending if when > now]
-        for action in due:
-            action()
-
-    def later(self, delay: float, action: Callable[[], None]) -> None:
-        """Run ``action`` ``delay`` wall seconds from now (in the executor)."""
-        self.pending.append((self.clock() + delay, action))
-
-    # --- the scripted robots ------------------------------------------------------------
-
-    def _answer(self, robot: int, stamp: int) -> None:
-        start = self.episode['start_ns']
-        step = (stamp - start) // self.step_ns
-        if stamp < start or step in self.answered[robot]:
-            return  # another episode's, or a repeat we already answered
-        self.answered[robot].add(step)
-        first = self.episode['episode'] == 0
-        if robot == 4 and first and step in ROBOT4_SILENT:
-            return
-        cleaner = first and ((robot == 3 and step >= ROBOT3_CLEANS_FROM)
-                             or (robot == 4 and step == ROBOT4_CLEANER_STEP))
-        commands = [(stamp, ROBOT3_SPEED if first and robot == 3 and step in ROBOT3_DRIVES
-                         else 0.0)]
-        delay = 0.0
-        if first and robot == 3:
-            if step == 0:
-                delay = ROBOT3_STEP0_DELAY
-            elif step == ROBOT3_SLOW_STEP:
-                delay = ROBOT3_SLOW_DELAY
-            elif step == ROBOT3_WRONG_STEP:  # another step's stamp, the answer, a duplicate
-                commands = [(stamp + 5 * self.step_ns, 0.0), (stamp, 0.0), (stamp, 0.05)]
-
-        def send() -> None:
-            for command_stamp, linear in commands:
-                if robot == 3:  # robot 4 never says its state: the world keeps 0 for it
-                    self.state_pubs[robot].publish(UInt8(data=2 if cleaner else 0))
-                self.cleaner_pubs[robot].publish(Bool(data=cleaner))  # then the cleaner
-                twist = TwistStamped()
-                twist.header.stamp.sec, twist.header.stamp.nanosec = divmod(command_stamp,
-                                                                             1_000_000_000)
-                twist.header.frame_id = f'mona_{robot}/base_link'
-                twist.twist.linear.x = linear
-                self.cmd_pubs[robot].publish(twist)
-            self.sent[(robot, step)] = self.clock()
-
-        if delay:
-            self.later(delay, send)
-        else:
-            send()
-
     # --- episodes -----------------------------------------------------------------------
 
     def announce(self, document: dict) -> float:
         """Publish an announcement; returns the wall time it went out."""
-        if not document.get('shutdown'):
-            self.episode = document
-            self.answered = {robot: set() for robot in SCRIPTED}
         self.episode_pub.publish(String(data=json.dumps(document)))
         return self.clock()
 
@@ -247,14 +191,42 @@ class Probe(Node):
         """The last /world/status document received ({} before any)."""
         return self.status[-1][1] if self.status else {}
 
+    def sees(self, node: str) -> bool:
+        """Whether ``node`` subscribes to ``/episode`` in the graph this probe sees."""
+        return any(info.node_name == node
+                   for info in self.get_subscriptions_info_by_topic('/episode'))
+
+    def take_record(self, path: Path) -> None:
+        """Take in scripted.py's record (JSON lines): when each scripted robot subscribed, the
+        readings it received (when, stamp, the message) and when it answered each step
+        (nothing if it wrote none)."""
+        types = {'ground': Image, 'proximity': LaserScan}
+        lines = path.read_text().splitlines() if path.exists() else []
+        for line in lines:
+            try:
+                item = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a line cut short by a kill
+            if 'reading' in item:
+                robot, kind = item['reading']
+                msg = deserialize_message(base64.b64decode(item['cdr']), types[kind])
+                self.readings.setdefault((robot, kind), []).append(
+                    (item['at'], ns_of(msg.header.stamp), msg))
+            elif 'sent' in item:
+                self.sent[tuple(item['sent'])] = item['at']
+            elif 'listening' in item:
+                self.listening[item['listening']] = item['at']
+
     def endpoints(self) -> dict:
         """What the ROS graph says about every contract topic now: names and types, and per
         topic the other nodes' publishers and subscriptions (node, type, reliability,
-        durability)."""
+        durability); the suite's own nodes (this probe, the scripted robots) left out."""
+        ours = (self.get_name(), SCRIPTED_NODE)
+
         def describe(infos) -> list[tuple]:
             return [(info.node_name, info.topic_type, info.qos_profile.reliability,
                      info.qos_profile.durability) for info in infos
-                    if info.node_name != self.get_name()]
+                    if info.node_name not in ours]
 
         names = dict(self.get_topic_names_and_types())
         graph = {'types': {name: list(types) for name, types in names.items()}}
@@ -329,9 +301,10 @@ class Scenario:
         first = announcement(0, int(probe.latest_status().get('time_ns', 0)), POSES_0,
                              DURATION_0, parameters)
         self.announced[0] = first
+        if not self.spin_until(lambda: probe.sees(SCRIPTED_NODE), 30,
+                               'the scripted robots (scripted.py) on /episode'):
+            return
         self.marks['announced_0'] = probe.announce(first)
-        probe.later(ROBOT3_LISTENS_AFTER, lambda: probe._listen(3))
-        probe.later(ROBOT3_LISTENS_AFTER, lambda: probe._listen(4))
         if not self.spin_until(self.status_of(0, 'running', 'finished', 'failed'), 90,
                                'episode 0 running'):
             return

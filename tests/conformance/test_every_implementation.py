@@ -35,8 +35,9 @@ def test_the_implementation_passes_every_rule(name):
     first = ''
     if result.returncode != 0 and IMPLEMENTATIONS[name].mode == 'realtime':
         # A realtime world does not wait for the suite's scripted robots: on a busy 2-core
-        # machine their answers can come later than `absent_after` steps (the probe shares a
-        # process with its records), so a robot the rules need counts absent. One more run,
+        # machine an answer can come later than `absent_after` steps, so a robot the rules
+        # need counts absent (they answer from a process of their own, scripted.py, not
+        # behind the probe's records, but a machine can be busier still). One more run,
         # which must pass; a failure shows the first run's failures with the second's.
         first = f'first run:\n{result.stdout[-3000:]}\nsecond run:\n'
         print(first)
