@@ -36,8 +36,10 @@ print(json.dumps({'before': before, 'after': after, 'kernels': warmed.kernels}))
 def test_warm_compiles_every_cached_kernel(tmp_path: Path) -> None:
     cache = tmp_path / 'numba-cache'
     env = {**os.environ, 'NUMBA_CACHE_DIR': str(cache)}
+    # A hang's bound: the compilation is about 40 s of CPU, but took over 10 min of wall
+    # time on 2 cores loaded 10 times over.
     done = subprocess.run([sys.executable, '-c', PROBE], env=env, capture_output=True,
-                          text=True, timeout=600)
+                          text=True, timeout=1800)
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads(done.stdout.strip().splitlines()[-1])
     before, after = report['before'], report['after']
