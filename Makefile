@@ -18,11 +18,14 @@ STUDY_OUT ?= results/study
 
 venv: $(VENV)/.installed
 
+# The last step fills numba's cache serially, before make run or make test start processes
+# side by side (docs/architecture.md "Numba's cache"; about a minute on a fresh clone).
 $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt
 	$(PY) -m pip install --quiet $(foreach p,$(PACKAGES),-e $(p))
+	$(PY) -m swarm_supervisor.engine.warm
 	touch $@
 
 run: venv

@@ -20,6 +20,10 @@ The suite's own rules (tests/README.md says how to write a test that keeps them)
 - Never skip silently: under ``CI=true`` a skipped or deselected test fails the run, listing
   each with its reason; elsewhere the run ends with a banner of what did not run and the
   command that installs what it lacked.
+- Numba's cache is warm before the workers start: with pytest-xdist, the controller compiles
+  (or loads) every cached kernel once, serially, before it spawns them
+  (``swarm_supervisor.engine.warm``; workers compiling the same kernel at once can leave a
+  cache that crashes them, docs/architecture.md "Numba's cache").
 - Parallel by default (``make test`` runs pytest-xdist): every pytest process holds a ROS
   domain of its own for the session (in ``os.environ``), so a node started without
   ``ros_env`` still meets no other test's; ports a test names come from
@@ -120,6 +124,8 @@ def spin_until(executor) -> Callable[..., None]:
 
 # --- the suite's rules (tests/suite.py) -------------------------------------------------------
 
+#: What pytest_sessionstart's warm step did, for the header.
+WARMED = pytest.StashKey[str]()
 #: The environment a ROS domain is: set for the whole session from this process's own domain.
 DOMAIN_KEYS = ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE')
 
@@ -135,6 +141,26 @@ def session_domain() -> Iterator[int]:
         for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
             patch.delenv(key, raising=False)
         yield domain
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which spawns the workers
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """On the controller of a pytest-xdist run: numba's cache warmed, serially (a few seconds
+    once cached; the header says how long). A kernel that fails to compile here fails its
+    tests later, where the error is reported."""
+    config = session.config
+    if hasattr(config, 'workerinput') or not config.pluginmanager.has_plugin('dsession'):
+        return
+    from swarm_supervisor.engine.warm import warm_kernels
+    try:
+        config.stash[WARMED] = str(warm_kernels())
+    except Exception as error:  # reported in the header; the tests go on
+        config.stash[WARMED] = f'not warmed ({type(error).__name__}: {error})'
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """What the controller's warm step did (pytest_sessionstart)."""
+    return f'numba cache: {config.stash[WARMED]}' if WARMED in config.stash else None
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
