@@ -34,6 +34,10 @@ STUDY = ROOT / 'docs' / 'media' / 'paper_study'
 HELDOUT = ROOT / 'docs' / 'media' / 'learned' / 'heldout'
 #: Its plan, which names the scenarios, N, the duration and the seeds.
 PLAN = ROOT / 'ros_ws' / 'config' / 'designs' / 'learned_heldout.yaml'
+#: What the existence search made (calibration.md, trials.csv, the confirmed studies), as shipped.
+EXISTENCE = ROOT / 'docs' / 'media' / 'existence'
+#: The claims a swarm that gathers and cleans shows: where none of them holds, it does neither.
+GATHERS_AND_CLEANS = ('fig4-halved-by-1500s', 'fig5-rises-then-settles')
 #: The scenarios of eq. 3's cleaning the report quotes, and how it names them.
 EQ3 = {'paper': "the paper's arena", 'leaks': 'the moving leaks'}
 #: The numbers the report will quote once the work they come from lands; each is a row of
@@ -128,6 +132,55 @@ def heldout_tests() -> int:
     return sum(len(tests) for entry in heldout().values() for tests in entry['pairs'].values())
 
 
+@functools.cache
+def trials() -> pd.DataFrame:
+    """The existence search's screened trials, with the set of claims each held."""
+    frame = pd.read_csv(EXISTENCE / 'trials.csv')
+    every = {claim.id for claim in paper_claims()}
+    frame['held'] = [every - set(str(failed).split()) if isinstance(failed, str) else every
+                     for failed in frame['failed']]
+    return frame
+
+
+def held_in(claim: str) -> int:
+    return sum(claim in held for held in trials()['held'])
+
+
+def confirmed_claims(trial: int) -> dict[str, str]:
+    """A confirmed trial's study: claim id -> verdict."""
+    report = (EXISTENCE / 'confirm' / f'trial_{trial:04d}' / 'report.md').read_text()
+    rows = [[cell.strip() for cell in line.strip('|').split('|')]
+            for line in report.splitlines()]
+    return {cells[0].strip('`'): cells[4].strip('*') for cells in rows
+            if len(cells) == 5 and cells[0].startswith('`')}
+
+
+def confirmed_f(trial: int, factor: str) -> float:
+    frame = pd.read_csv(EXISTENCE / 'confirm' / f'trial_{trial:04d}' / 'anova_cue.csv')
+    return float(frame.set_index('factor').loc[factor, 'F'])
+
+
+def confirmed_ratio(trial: int) -> float:
+    frame = pd.read_csv(EXISTENCE / 'confirm' / f'trial_{trial:04d}' / 'anova_cue.csv')
+    frame = frame.set_index('factor')
+    return float(frame.loc['speed', 'sum_sq'] / frame.loc['population', 'sum_sq'])
+
+
+def order_screened() -> str:
+    """The screened trials that held table 2's order: how many, the first and its claims."""
+    holding = trials()[[('table2-factor-order' in held) for held in trials()['held']]]
+    first = holding.iloc[0]
+    return (f'held in {len(holding)} screened trial (trial {int(first["trial"])}, '
+            f'{len(first["held"])} of 13 claims)')
+
+
+def nearest_trial() -> str:
+    """The screened trial whose SS_speed / SS_population is nearest the paper's."""
+    nearest = trials().loc[(trials()['ratio'] - PAPER_RATIO).abs().idxmin()]
+    return (f'(trial {int(nearest["trial"])}, {nearest["ratio"]:.3f}) held '
+            f'{int(nearest["claims_held"])} claims')
+
+
 def _claim_row(claim_id: str) -> Callable[[], str]:
     def text() -> str:
         ours, verdict = study_claims()[claim_id]
@@ -165,6 +218,25 @@ QUOTES: dict[str, Callable[[], str]] = {
     'cooperation: seeds': lambda: (
         f'the solitary rule leaves less: {eq3_common("a_lower")} of {eq3_common("seeds")} '
         'on both'),
+    'existence: trials': lambda: f'It ran {len(trials())} trials of its screening study',
+    'existence: sparse coherency': lambda: (
+        f'(`fig6-sparse-unchanged`) held in {held_in("fig6-sparse-unchanged")} of '
+        f'{len(trials())} trials'),
+    'existence: sparse ratio': lambda: (
+        f'(`fig5-sparse-unchanged`) held in {held_in("fig5-sparse-unchanged")} of '
+        f'{len(trials())} trials'),
+    'existence: order, screened': lambda: order_screened(),
+    'existence: trial 29': lambda: (
+        f'it holds {sum(v == "holds" for v in confirmed_claims(29).values())} of 13 claims, '
+        f"speed's F = {confirmed_f(29, 'speed'):.1f} just above population's F = "
+        f'{confirmed_f(29, "population"):.1f}, SS_speed / SS_population = '
+        f'{confirmed_ratio(29):.3f}'),
+    'existence: ratios': lambda: (
+        f'ran from {trials()["ratio"].min():.3g} to {trials()["ratio"].max():.3g} over the '
+        'screened trials'),
+    'existence: nearest': lambda: nearest_trial(),
+    'existence: most held': lambda: (
+        f'The most any trial held is {trials()["claims_held"].max()} of 13'),
     'cooperation: p': lambda: (
         f'p = {eq3_common("p_value", ".2g")} for each, {eq3_common("p_holm", ".2g")} '
         f"after Holm's adjustment over the comparison's {heldout_tests()} tests"),
@@ -196,3 +268,24 @@ def test_pending_numbers_are_listed_in_one_place_and_nowhere_pretend():
     for number in PENDING:
         assert f'[{number}](#numbers-pending)' in before, number
     assert '**pending**' not in before
+
+
+def test_the_reports_unreached_claims_are_the_existence_searchs():
+    """report.md's one line (``UNREACHED``, ``ONLY_WITHOUT_CLEANING``) says what the shipped
+    search found: an unreached claim held in no trial, screened or confirmed; the others held
+    only where the swarm neither halved the cue by 1500 s nor gathered at the source."""
+    from swarm_supervisor.analysis.report import ONLY_WITHOUT_CLEANING, UNREACHED
+    confirmed = [confirmed_claims(int(folder.name.split('_')[1]))
+                 for folder in sorted((EXISTENCE / 'confirm').glob('trial_*'))]
+    assert confirmed
+    helds = [*trials()['held'], *({c for c, v in row.items() if v == 'holds'}
+                                  for row in confirmed)]
+    for claim in UNREACHED:
+        assert not any(claim in held for held in helds), claim
+    for claim in ONLY_WITHOUT_CLEANING:
+        with_it = [held for held in helds if claim in held]
+        assert with_it, f'{claim} held nowhere: it belongs in UNREACHED'
+        assert not any(set(GATHERS_AND_CLEANS) & held for held in with_it), claim
+    # Every claim the search never reached is named.
+    every = {claim.id for claim in paper_claims()}
+    assert {c for c in every if not any(c in held for held in helds)} == set(UNREACHED)
