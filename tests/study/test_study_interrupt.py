@@ -27,7 +27,7 @@ EPISODES = 12
 #: test_ctrl_c_...'s: 16 episodes on two workers (here, not in test_study.py, whose
 #: module-scoped study would keep this slow test on that module's worker).
 CTRL_C_DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3, 4],
-                 'duration': 12.0, 'snapshot_times': [0.0, 6.0, 12.0]}
+                 'duration': 24.0, 'snapshot_times': [0.0, 6.0, 24.0]}
 MESSAGE = (r'interrupted by SIGINT: (\d+) of 12 episodes kept in (\S+) \(the running batches '
            r'were cut\); rerun the same command to resume')
 
@@ -139,7 +139,7 @@ def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
     """SIGINT to the whole process group (a terminal's Ctrl-C): exit 130, no worker left,
     finished episodes kept; the next run completes the rest."""
     out = tmp_path / 'out'
-    # 16 episodes of 12 s: two batches of eight, each episode written as it is done.
+    # 16 episodes of 24 s: two batches of eight, each episode written as it is done.
     config = tmp_path / 'tiny.yaml'
     write_ros_yaml(load_config().replace(study=CTRL_C_DESIGN), config)
     command = [sys.executable, '-m', 'swarm_supervisor.cli', 'study', '--out', str(out),
