@@ -24,7 +24,7 @@ from swarm_supervisor.config import load_config
 TINY = {
     'seed': 3, 'trials': 4, 'batch': 2, 'startup': 2,
     'screen': {'populations': [3, 6], 'speeds': [0.04, 0.08], 'seeds': [1, 2],
-               'duration': 20.0, 'snapshot_times': [20.0]},
+               'duration': 10.0, 'snapshot_times': [10.0]},
     'confirm': {'candidates': 1},
     'parameters': {'controller.beeclust.alpha': {'low': 1.0, 'high': 20.0, 'log': True},
                    'controller.beeclust.avoid': {'choices': ['turn-away', 'random-turn']},
@@ -46,10 +46,17 @@ def trials(out: Path) -> pd.DataFrame:
     return pd.read_csv(out / 'trials.csv')
 
 
-def test_a_search_runs_scores_confirms_and_writes_a_profile(tmp_path):
-    design = write_design(tmp_path)
-    assert main(['calibrate', str(design), '--out', str(tmp_path / 'out')]) == 0
-    out = tmp_path / 'out'
+@pytest.fixture(scope='module')
+def searched(tmp_path_factory) -> Path:
+    """The tiny design's whole search, never interrupted (4 trials, one confirmed): the first
+    test looks at it, and the interrupted and the extended searches are compared with it."""
+    folder = tmp_path_factory.mktemp('whole')
+    assert main(['calibrate', str(write_design(folder)), '--out', str(folder / 'out')]) == 0
+    return folder / 'out'
+
+
+def test_a_search_runs_scores_confirms_and_writes_a_profile(searched):
+    out = searched
     table = trials(out)
     assert list(table['trial']) == [0, 1, 2, 3]
     assert (table['claims'] == 13).all()
@@ -95,7 +102,7 @@ def test_an_existence_search_is_labelled_and_writes_no_profile(tmp_path):
     assert best.controller.beeclust.alpha == row['controller.beeclust.alpha']
 
 
-def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path):
+def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path, searched):
     design = write_design(tmp_path)
     broken = tmp_path / 'broken'
     process = subprocess.Popen(
@@ -114,10 +121,9 @@ def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path)
     storage = f'sqlite:///{broken / "calibration.db"}'
     asked = optuna.load_study(study_name='calibration', storage=storage).get_trials()
     assert len(asked) < 4 or any(t.state.name == 'RUNNING' for t in asked)
-    # Resume to the end, and run the same design uninterrupted elsewhere.
+    # Resume to the end; the same design's uninterrupted search is ``searched``.
     assert main(['calibrate', str(design), '--out', str(broken)]) == 0
-    whole = tmp_path / 'whole'
-    assert main(['calibrate', str(design), '--out', str(whole)]) == 0
+    whole = searched
     done = optuna.load_study(study_name='calibration', storage=storage).get_trials()
     assert [t.number for t in done] == [0, 1, 2, 3]  # none lost, none asked twice
     assert all(t.state.name == 'COMPLETE' for t in done)
@@ -126,7 +132,7 @@ def test_an_interrupted_search_resumes_and_equals_an_uninterrupted_one(tmp_path)
         (whole / 'best_profile.yaml').read_text().splitlines()[2:]
 
 
-def test_raising_or_lowering_trials_carries_on_or_stops_in_the_same_folder(tmp_path):
+def test_raising_or_lowering_trials_carries_on_or_stops_in_the_same_folder(tmp_path, searched):
     out = tmp_path / 'out'
     assert main(['calibrate', str(write_design(tmp_path, trials=2, confirm={'candidates': 0})),
                  '--out', str(out)]) == 0
@@ -134,15 +140,12 @@ def test_raising_or_lowering_trials_carries_on_or_stops_in_the_same_folder(tmp_p
     # Raised: the same folder carries on, and the trials are an uninterrupted search's.
     raised = write_design(tmp_path, trials=4, confirm={'candidates': 0})
     assert main(['calibrate', str(raised), '--out', str(out)]) == 0
-    whole = tmp_path / 'whole'
-    whole.mkdir()
-    assert main(['calibrate', str(write_design(whole, trials=4, confirm={'candidates': 0})),
-                 '--out', str(whole / 'out')]) == 0
-    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out'))
+    # An uninterrupted search of 4 trials (what is confirmed afterwards changes no trial).
+    pd.testing.assert_frame_equal(trials(out), trials(searched))
     # Lowered: the report covers the trials asked for, and confirms among them only.
     lowered = write_design(tmp_path, trials=3, confirm={'candidates': 1})
     assert main(['calibrate', str(lowered), '--out', str(out)]) == 0
-    pd.testing.assert_frame_equal(trials(out), trials(whole / 'out').iloc[:3])
+    pd.testing.assert_frame_equal(trials(out), trials(searched).iloc[:3])
     assert '3 trials of the screening study' in (out / 'calibration.md').read_text()
     best = trials(out).sort_values(['loss', 'trial']).iloc[0]
     assert [f.name for f in (out / 'confirm').iterdir()] == [f'trial_{best["trial"]:04d}']

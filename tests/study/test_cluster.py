@@ -20,8 +20,9 @@ from swarm_supervisor.config import load_config, write_ros_yaml
 
 DASK = Path(sys.executable).parent / 'dask'
 MONA_SWARM = Path(sys.executable).parent / 'mona-swarm'
-DESIGN = {'populations': [4, 8], 'speeds': [0.08], 'seeds': [1, 2, 3], 'duration': 150.0,
-          'snapshot_times': [0.0, 150.0]}
+DESIGN = {'populations': [4, 8], 'speeds': [0.08], 'seeds': [1, 2, 3], 'duration': 60.0,
+          'snapshot_times': [0.0, 60.0]}
+EPISODES = 6
 
 pytestmark = pytest.mark.slow
 
@@ -70,21 +71,27 @@ def test_cluster_study_equals_local_and_survives_a_killed_worker(cluster, tmp_pa
     address, workers = cluster
     config = tmp_path / 'design.yaml'
     write_ros_yaml(load_config().replace(study=DESIGN), config)
-    local = run_study(tmp_path / 'local', config, '--jobs', '2')
-    assert local.returncode == 0, local.stderr
+    # The local study in this process: its episodes and table are what is compared.
+    study.run_study(load_config(config), tmp_path / 'local', jobs=2, progress=False,
+                    start_method='fork')
 
     out = tmp_path / 'cluster'
+    # One episode a task: the six are spread over both workers (one batch of six would run
+    # on one worker, and all its episodes would be written together).
     running = subprocess.Popen([str(MONA_SWARM), 'study', '--out', str(out), '--config',
-                                str(config), '--scheduler', address, '--bag'],
+                                str(config), '--scheduler', address, '--bag',
+                                '--batch-size', '1'],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # Kill one worker as soon as the first episode is written: the other episodes are then
     # queued or running, one of them on the worker that dies.
     deadline = time.monotonic() + 300
-    while not any(outputs.episode_complete(p) for p in (out / study.EPISODES_DIR).glob('*')):
+    while not (done := [p for p in (out / study.EPISODES_DIR).glob('*')
+                        if outputs.episode_complete(p)]):
         assert running.poll() is None, running.communicate()
         assert time.monotonic() < deadline, 'no episode finished on the cluster'
         time.sleep(0.1)
     os.killpg(workers[0].pid, signal.SIGKILL)
+    assert len(done) < EPISODES and running.poll() is None  # killed mid-study
     stdout, stderr = running.communicate(timeout=600)
     assert running.returncode == 0, stderr
 
@@ -98,11 +105,11 @@ def test_cluster_study_equals_local_and_survives_a_killed_worker(cluster, tmp_pa
         assert (folder / study.BAG_DIR / 'metadata.yaml').exists(), folder
         assert list((folder / study.BAG_DIR).glob('*.mcap')), folder
     record = study.read_invocations(out)[-1]
-    assert record['scheduler'] == address and record['ran'] == 6
+    assert record['scheduler'] == address and record['ran'] == EPISODES
 
-    # Resumable: nothing left to run.
-    again = run_study(out, config, '--scheduler', address)
-    assert again.returncode == 0, again.stderr
+    # Resumable: nothing left to run (in this process: the finished study is not analysed
+    # again).
+    study.run_study(load_config(config), out, scheduler=address, progress=False)
     assert study.read_invocations(out)[-1]['ran'] == 0
 
 

@@ -37,10 +37,26 @@ def without_wall_time(out):
             for row in read_csv(out / 'generations.csv')]
 
 
+def in_process(design, out, *extra):
+    """The command in this process (its modules imported once, not per command); the exit
+    status and what it wrote to stderr."""
+    import contextlib
+    import io
+
+    from swarm_supervisor.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        status = main(command(design, out)[3:] + list(extra))
+    return status, err.getvalue()
+
+
 def test_an_interrupted_and_resumed_evolution_equals_an_uninterrupted_one(tmp_path):
     design = write_design(tmp_path / 'tiny.yaml')
     whole, parts = tmp_path / 'whole', tmp_path / 'parts'
-    subprocess.run(command(design, whole), check=True, capture_output=True)
+    # The uninterrupted run in this process: what is compared is its files, not its process.
+    status, err = in_process(design, whole)
+    assert status == 0, err
     process = subprocess.Popen(command(design, parts), stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
@@ -60,8 +76,8 @@ def test_an_interrupted_and_resumed_evolution_equals_an_uninterrupted_one(tmp_pa
     assert (whole / 'fitness.png').stat().st_size > 0
     # Another design is refused on a folder that holds this one's run.
     other = write_design(tmp_path / 'other.yaml', seed=4)
-    refused = subprocess.run(command(other, parts), capture_output=True, text=True)
-    assert refused.returncode == 2 and 'another design' in refused.stderr
+    status, err = in_process(other, parts)
+    assert status == 2 and 'another design' in err
 
 
 @pytest.mark.parametrize(('changes', 'message'), [
@@ -114,25 +130,27 @@ def test_an_evolution_extended_by_raising_generations_equals_one_run_of_them(tmp
     whole, parts = tmp_path / 'whole', tmp_path / 'parts'
     full = write_design(tmp_path / 'full.yaml')
     short = write_design(tmp_path / 'short.yaml', generations=TINY['generations'] - 1)
-    subprocess.run(command(full, whole), check=True, capture_output=True)
-    subprocess.run(command(short, parts), check=True, capture_output=True)
+    assert in_process(full, whole)[0] == 0
+    assert in_process(short, parts)[0] == 0
     assert len(without_wall_time(parts)) == TINY['generations'] - 1
-    subprocess.run(command(full, parts), check=True, capture_output=True)
+    assert in_process(full, parts)[0] == 0
     assert without_wall_time(parts) == without_wall_time(whole)
     assert (parts / 'best.npz').read_bytes() == (whole / 'best.npz').read_bytes()
     assert yaml.safe_load((parts / 'design.yaml').read_text())['evolve']['generations'] == \
         TINY['generations']
     # Fewer generations than the folder holds is refused, naming the key.
     fewer = write_design(tmp_path / 'fewer.yaml', generations=1)
-    refused = subprocess.run(command(fewer, parts), capture_output=True, text=True)
-    assert refused.returncode == 2, refused.stderr
-    assert 'more than evolve.generations = 1' in refused.stderr
+    status, err = in_process(fewer, parts)
+    assert status == 2, err
+    assert 'more than evolve.generations = 1' in err
 
 
-@pytest.fixture(scope='module')
+@pytest.fixture
 def dask_scheduler():
     """A real dask.distributed cluster on loopback: a scheduler and two one-thread worker
-    processes (they import this project as a remote worker would)."""
+    processes (they import this project as a remote worker would). One test uses it: made
+    for that test, so the module's other tests are not tied to its worker (tests/suite.py
+    keeps a module with a module-scoped fixture on one worker)."""
     from dask.distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host='127.0.0.1',
@@ -146,10 +164,10 @@ def test_an_evolution_on_a_dask_scheduler_equals_one_in_this_process(tmp_path,
     design = write_design(tmp_path / 'tiny.yaml', held_out=3, max_speed=0.08,
                           clean_stops=True)
     local, cluster = tmp_path / 'local', tmp_path / 'cluster'
-    subprocess.run([*command(design, local), '--jobs', '1'], check=True, capture_output=True)
-    ran = subprocess.run([*command(design, cluster), '--scheduler', dask_scheduler],
-                         capture_output=True, text=True, timeout=600)
-    assert ran.returncode == 0, ran.stderr
+    status, err = in_process(design, local, '--jobs', '1')
+    assert status == 0, err
+    status, err = in_process(design, cluster, '--scheduler', dask_scheduler)
+    assert status == 0, err
     assert without_wall_time(cluster) == without_wall_time(local)
     assert len(without_wall_time(local)) == TINY['generations']
     assert (cluster / 'best.npz').read_bytes() == (local / 'best.npz').read_bytes()

@@ -1,15 +1,11 @@
 """The study end to end: a tiny design through ``mona-swarm study``, its outputs, resuming,
-redoing a half-written episode, analysing episode folders, and Ctrl-C."""
+redoing a half-written episode and analysing episode folders (Ctrl-C:
+test_study_interrupt.py)."""
 
 import csv
 import dataclasses
 import json
-import os
 import shutil
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -114,7 +110,8 @@ def test_half_written_episode_is_redone_and_only_it(finished, tmp_path):
     before = {f.name: (f / outputs.EPISODE_FILE).stat().st_mtime_ns
               for f in (out / study.EPISODES_DIR).iterdir() if f != broken}
     config = tiny_config(tmp_path / 'tiny.yaml')
-    assert main(['study', '--out', str(out), '--config', str(config), '--jobs', '1']) == 0
+    # The study itself, in this process (the resume is its work; the figures are not looked at).
+    study.run_study(load_config(config), out, jobs=1, progress=False, start_method='fork')
     after = episode_stamps(out)
     assert {name: after[name] for name in before} == before
     assert outputs.episode_complete(broken)
@@ -146,9 +143,9 @@ def test_an_episode_recorded_before_a_parameter_existed_is_kept(finished, tmp_pa
         del record['parameters']['controller']['kind']  # as written before controller.kind
         record_path.write_text(json.dumps(record))
     before = episode_stamps(out)
-    assert main(['study', '--out', str(out), '--config', str(finished / 'parameters.yaml')]) \
-        == 0
+    study.run_study(load_config(finished / 'parameters.yaml'), out, progress=False)
     assert episode_stamps(out) == before  # nothing ran again
+    assert study.read_invocations(out)[-1]['ran'] == 0
 
 
 def test_from_episodes_analyses_folders_without_snapshots(finished, tmp_path):
@@ -194,42 +191,3 @@ def test_quick_design_is_small_and_keeps_every_output():
     assert quick.snapshot_times == (0.0, 15.0, 60.0)
     assert study.snapshot_times(quick) == (0.0, 15.0, 60.0)
     assert len(study.design(dataclasses.replace(load_config(), study=quick))) == 8
-
-
-@pytest.mark.slow
-def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
-    """SIGINT to the whole process group (a terminal's Ctrl-C): exit 130, no worker left,
-    finished episodes kept; the next run completes the rest."""
-    out = tmp_path / 'out'
-    config = tiny_config(tmp_path / 'tiny.yaml', seeds=[1, 2, 3, 4])
-    command = [sys.executable, '-m', 'swarm_supervisor.cli', 'study', '--out', str(out),
-               '--config', str(config), '--jobs', '2']
-    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        while not list(out.glob(f'{study.EPISODES_DIR}/*/{outputs.EPISODE_FILE}')):
-            assert process.poll() is None, process.communicate()
-            assert time.monotonic() < deadline, 'no episode finished'
-            time.sleep(0.1)
-        os.killpg(process.pid, signal.SIGINT)
-        _, err = process.communicate(timeout=60)
-        assert process.returncode == 130, err
-        assert 'interrupted' in err
-        deadline = time.monotonic() + 10
-        while True:  # the workers are gone with the parent
-            try:
-                os.killpg(process.pid, 0)
-            except ProcessLookupError:
-                break
-            assert time.monotonic() < deadline, 'workers outlived the study'
-            time.sleep(0.1)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    kept = study.find_episodes([out / study.EPISODES_DIR])
-    assert 1 <= len(kept) < 16
-    assert main(['study', '--out', str(out), '--config', str(config), '--jobs', '2']) == 0
-    last = study.read_invocations(out)[-1]
-    assert last['kept'] == len(kept) and last['ran'] == 16 - len(kept)

@@ -1,6 +1,7 @@
 """Stopping a study keeps every finished episode: Ctrl-C as a real signal to a real
 ``mona-swarm study`` process, then the same command again, and the result byte-identical to
-a study that was never stopped."""
+a study that was never stopped; Ctrl-C to a study on two workers leaves no worker
+behind."""
 
 from __future__ import annotations
 
@@ -16,12 +17,17 @@ from pathlib import Path
 import pytest
 
 from swarm_supervisor import outputs, study
+from swarm_supervisor.cli import main
 from swarm_supervisor.config import load_config, write_ros_yaml
 
 #: 2 populations x 2 speeds x 3 seeds of 8 s; one worker and batches of 2: six batches.
 DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3], 'duration': 8.0,
           'snapshot_times': [0.0, 8.0]}
 EPISODES = 12
+#: test_ctrl_c_...'s: 16 episodes on two workers (here, not in test_study.py, whose
+#: module-scoped study would keep this slow test on that module's worker).
+CTRL_C_DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3, 4],
+                 'duration': 24.0, 'snapshot_times': [0.0, 6.0, 24.0]}
 MESSAGE = (r'interrupted by SIGINT: (\d+) of 12 episodes kept in (\S+) \(the running batches '
            r'were cut\); rerun the same command to resume')
 
@@ -92,9 +98,11 @@ def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(con
     assert runs[-1]['outcome'] == 'finished'
     assert (runs[-1]['kept'], runs[-1]['ran']) == (len(kept), EPISODES - len(kept))
 
+    # A study never stopped, of the same design, workers and batches, run in this process (its
+    # episodes and table; the figures and the report are not compared, so not made again).
     whole = tmp_path / 'whole'
-    once = subprocess.run(command(config, whole), capture_output=True, text=True, timeout=300)
-    assert once.returncode == 0, once.stderr
+    study.run_study(load_config(config), whole, jobs=1, batch_size=2, progress=False,
+                    start_method='fork')
     assert (out / study.TABLE_FILE).read_bytes() == (whole / study.TABLE_FILE).read_bytes()
     assert [p.name for p in written(out)] == [p.name for p in written(whole)]
     for folder in written(whole):
@@ -124,3 +132,44 @@ def test_sigterm_and_a_second_ctrl_c_stop_at_once_and_leave_no_torn_folder(confi
     record = json.loads((out / study.TIMING_FILE).read_text())['invocations'][-1]
     assert record['outcome'] == 'interrupted by SIGTERM'
     assert record['complete'] == len(written(out))
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
+    """SIGINT to the whole process group (a terminal's Ctrl-C): exit 130, no worker left,
+    finished episodes kept; the next run completes the rest."""
+    out = tmp_path / 'out'
+    # 16 episodes of 24 s: two batches of eight, each episode written as it is done.
+    config = tmp_path / 'tiny.yaml'
+    write_ros_yaml(load_config().replace(study=CTRL_C_DESIGN), config)
+    command = [sys.executable, '-m', 'swarm_supervisor.cli', 'study', '--out', str(out),
+               '--config', str(config), '--jobs', '2']
+    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(out.glob(f'{study.EPISODES_DIR}/*/{outputs.EPISODE_FILE}')):
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline, 'no episode finished'
+            time.sleep(0.1)
+        os.killpg(process.pid, signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+        assert process.returncode == 130, err
+        assert 'interrupted' in err
+        deadline = time.monotonic() + 10
+        while True:  # the workers are gone with the parent
+            try:
+                os.killpg(process.pid, 0)
+            except ProcessLookupError:
+                break
+            assert time.monotonic() < deadline, 'workers outlived the study'
+            time.sleep(0.1)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    kept = study.find_episodes([out / study.EPISODES_DIR])
+    assert 1 <= len(kept) < 16
+    assert main(['study', '--out', str(out), '--config', str(config), '--jobs', '2']) == 0
+    last = study.read_invocations(out)[-1]
+    assert last['kept'] == len(kept) and last['ran'] == 16 - len(kept)
