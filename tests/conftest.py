@@ -34,6 +34,7 @@ The suite's own rules (tests/README.md says how to write a test that keeps them)
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -141,6 +142,17 @@ def session_domain() -> Iterator[int]:
         for key in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
             patch.delenv(key, raising=False)
         yield domain
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Ctrl-C as a terminal gives it, whoever started the suite: a command started with ``&``
+    by a script (a non-interactive shell, as a CI runner may do) inherits SIGINT ignored, and
+    so would every process the tests start, so a test's Ctrl-C to a study, an evolution or a
+    live run would be lost (they run on). The tests play a user at a terminal: restore
+    Python's own handler here (in the controller and each worker), and the processes the
+    tests start inherit the default."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which spawns the workers
