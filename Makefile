@@ -13,7 +13,7 @@ PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test check lint typecheck bench sensitivity clean firmware-tools firmware \
+.PHONY: venv run test test-setup check lint typecheck bench sensitivity clean firmware-tools firmware \
 	browser-tools system-tools conformance
 
 venv: $(VENV)/.installed
@@ -35,8 +35,14 @@ run: venv
 # or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
 # (2026-12-04): 24 min wall idle (pytest 1297 s), 29.5 min under ../shared/tools/under-load.
 TEST_JOBS ?= 4
-test: lint typecheck firmware-tools browser-tools system-tools
+test: test-setup
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
+
+# make test's steps before the tests, side by side (the venv beside the Debian packages and npm;
+# each step's output printed whole when it ends): about a minute less on a fresh machine.
+test-setup:
+	@$(MAKE) --no-print-directory -j5 -Otarget lint typecheck firmware-tools browser-tools \
+		system-tools
 
 check: lint typecheck
 	$(PY) -m pytest tests/unit -q -n $(TEST_JOBS)

@@ -66,7 +66,12 @@ if [ -n "$missing" ]; then
   fi
   install="${sudo:+$sudo }apt-get install -y --no-install-recommends $missing"
   echo "$name: $install"
-  run_apt() { $sudo env DEBIAN_FRONTEND=noninteractive apt-get "$@" >>"$log" 2>&1; }
+  # One apt-get at a time (make test runs the tools' targets side by side): a lock of ours,
+  # since apt-get does not wait for a dpkg lock another apt-get holds (by default).
+  run_apt() {
+    flock "${TMPDIR:-/tmp}/mona-swarm-apt.lock" \
+      $sudo env DEBIAN_FRONTEND=noninteractive apt-get "$@" >>"$log" 2>&1
+  }
   if ! run_apt install -y --no-install-recommends $missing; then
     # A fresh machine's package lists may be stale or empty: update once, then retry.
     run_apt update -q && run_apt install -y --no-install-recommends $missing ||

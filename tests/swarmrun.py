@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -77,6 +78,13 @@ class SwarmRun:
     def log(self, name: str) -> str:
         path = self.out / 'logs' / f'{name}.log'
         return path.read_text(errors='replace') if path.exists() else ''
+
+    def failed_logs(self, tail: int = 4000) -> str:
+        """The log tails of the nodes the script reports FAILED (a node ended by SIGABRT has
+        its Python stacks there), for a failing assertion's message."""
+        names = re.findall(r'FAILED (\S+) \(pid', self.stderr)
+        return ''.join(f'\n--- {name}.log (last {tail} characters) ---\n'
+                       f'{self.log(name)[-tail:]}' for name in dict.fromkeys(names))
 
     def env(self) -> dict[str, str]:
         """The run's ROS environment (domain, middleware, profile), from <out>/ros_env.sh."""

@@ -124,10 +124,19 @@ class FoxgloveApp:
                 waiting_for = f'panel {panel} to mount'
                 self.panel(panel).wait_for(
                     timeout=max(1.0, deadline - time.monotonic()) * 1000)
-            # The data source sidebar lists topics once the player is up.
+            # The data source sidebar lists topics once the player is up, on its Topics tab:
+            # Foxglove turns to the Problems tab when the player reports a problem (a transient
+            # one too), which hides the list, so show the Topics tab before each look.
             waiting_for = 'the data source to list /world/status'
-            self.page.get_by_text('/world/status', exact=True).first.wait_for(
-                timeout=max(1.0, deadline - time.monotonic()) * 1000)
+            listed = self.page.get_by_text('/world/status', exact=True).first
+            while True:
+                self.show_tab('Topics')
+                try:
+                    listed.wait_for(timeout=2000)
+                    break
+                except PlaywrightTimeout:
+                    if time.monotonic() > deadline:
+                        raise
         except PlaywrightTimeout as error:
             # What the page showed and said: the next failure names its cause.
             shot = self.save('open_timed_out')
@@ -157,12 +166,20 @@ class FoxgloveApp:
         """A panel's visible text."""
         return self.panel(panel_id).inner_text()
 
-    def sidebar_tab(self, name: str) -> str:
-        """Click a tab of the data source sidebar (Topics, Problems) and return its text."""
+    def show_tab(self, name: str) -> bool:
+        """Click a tab of the data source sidebar (Topics, Problems) if it is shown; whether
+        it was."""
         tab = self.page.get_by_role('tab', name=name)
         if tab.count() == 0:
             tab = self.page.get_by_text(name, exact=True)
+        if tab.count() == 0:
+            return False
         tab.first.click()
+        return True
+
+    def sidebar_tab(self, name: str) -> str:
+        """Click a tab of the data source sidebar (Topics, Problems) and return its text."""
+        assert self.show_tab(name), f'the data source sidebar shows no {name} tab'
         self.page.wait_for_timeout(300)
         return self.page.locator('[role="tabpanel"]').first.inner_text() \
             if self.page.locator('[role="tabpanel"]').count() else self.page.inner_text('body')

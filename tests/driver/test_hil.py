@@ -91,6 +91,13 @@ def firmware_run(processes) -> tuple[float, float]:
     return float(found.group(1)), float(found.group(2))
 
 
+def unsent_while_silent(processes) -> list[int]:
+    """The telemetry frames each robot's firmware made while its radio was silent."""
+    found = re.search(r'frames unsent while silent, per robot: ([0-9 ]+)', processes.log('hil'))
+    assert found, processes.log('hil')[-2000:]
+    return [int(n) for n in found.group(1).split()]
+
+
 def meets(poses: np.ndarray, robot: np.ndarray, reach: float) -> bool:
     """Whether a robot at pose ``robot`` has another one of ``poses`` within ``reach``."""
     distances = np.linalg.norm(poses[:, :2] - robot[:2], axis=1)
@@ -168,12 +175,13 @@ def test_faults_are_survived_counted_and_recorded(processes, ros_env, tmp_path):
     for row in rows:  # 5 % lost and 5 % duplicated (each at least 2.5 % here)
         assert row['lost'] >= 0.025 * sent and 0.025 * sent <= row['duplicated'] <= 0.1 * sent
     assert rows[0]['lost'] <= 0.1 * sent and rows[2]['lost'] <= 0.1 * sent
-    # Robot 1's 3 s (wall) of silence lost it more frames: 20 Hz of the firmware's time, which
-    # runs at simulated / wall of the wall clock's pace.
-    simulated, wall = firmware_run(processes)
-    silence_frames = 20 * 3 * simulated / wall
-    assert rows[1]['lost'] >= max(rows[0]['lost'], rows[2]['lost']) + 0.5 * silence_frames, (
-        rows, silence_frames)
+    # Robot 1's 3 s (wall) of silence: every frame its firmware made meanwhile, as the
+    # emulator counts them, is counted lost (a gap in the sequence numbers), on top of the
+    # link's. (The firmware's pace against the wall clock varies on a loaded machine, and a
+    # reboot loses frames too: comparing robot 1's losses with the others' was a coin toss.)
+    unsent = unsent_while_silent(processes)
+    assert unsent[0] == unsent[2] == 0 and unsent[1] >= 20 * 3 * 0.1, unsent
+    assert rows[1]['lost'] >= unsent[1], (rows, unsent)
     assert rows[0]['reboots'] == 1 and rows[1]['reboots'] == rows[2]['reboots'] == 0
     assert rows[1]['silences'] >= 1 and rows[1]['held_steps'] >= 40, rows[1]
     assert rows[2]['dropouts'] >= 1 and rows[2]['held_steps'] >= 40, rows[2]

@@ -85,11 +85,17 @@ class Run:
             # (Every episode holds step 0 for a moment: until the start is recorded.)
             self.held |= self.world.held_since is not None and self.world.world.steps > 0
 
-    def stall(self, until: Callable[[], bool] = lambda: True, at_least: float = 1.0) -> None:
-        """Spin everything but the recorder until ``until()`` holds, ``at_least`` seconds."""
+    def pause(self) -> None:
+        """Stop spinning the recorder; return once no spin of it is under way."""
         self.idle.clear()
         self.stalled = True
         self.idle.wait()  # the spin under way has ended (on a busy machine, whenever that is)
+
+    def stall(self, until: Callable[[], bool] = lambda: True, at_least: float = 1.0) -> None:
+        """Spin everything but the recorder (paused now, unless it is already) until
+        ``until()`` holds, ``at_least`` seconds; then let the recorder spin again."""
+        if not self.stalled:
+            self.pause()
         shortest = time.monotonic() + at_least
         self.spin(lambda: time.monotonic() > shortest and until(), 'the end of the stall')
         self.stalled = False
@@ -135,7 +141,7 @@ def test_a_recorder_stalled_at_any_moment_ends_with_a_complete_bag(system, tmp_p
     episodes = 2 if moment == 'next' else 1
     run.spin(lambda: supervisor.status is not None, 'the world')
     if moment == 'announcement':  # before the first announcement: the world waits for it
-        run.stall(at_least=0)
+        run.pause()
         supervisor.reset_episode(SEED, episode=0)
         run.stall(lambda: world.state is WorldState.WAITING, at_least=2.0)
     else:
@@ -155,7 +161,7 @@ def test_a_recorder_stalled_at_any_moment_ends_with_a_complete_bag(system, tmp_p
     for k in range(episodes):
         run.spin(lambda k=k: run.closed(k), f'episode {k} recorded')
         if k + 1 < episodes:  # around the next announcement
-            run.stall(at_least=0)
+            run.pause()
             supervisor.reset_episode(SEED + k + 1, episode=k + 1)
             run.stall(lambda: world.state is WorldState.WAITING, at_least=2.0)
 

@@ -177,9 +177,10 @@ def test_signal_to_the_script_stops_everything_and_keeps_the_bag(swarm, sig):
     assert not run.note_shm()
     os.kill(run.process.pid, sig)
     status = run.wait(120)
-    assert status == 128 + sig, run.stderr
+    assert status == 128 + sig, run.stderr + run.failed_logs()
     assert f'{sig.name} received' in run.stderr
-    assert 'FAILED' not in run.stderr  # every node stopped on the first signal
+    # every node stopped on the first signal
+    assert 'FAILED' not in run.stderr, run.stderr + run.failed_logs()
     assert not [name for name, pgid in run.nodes().items() if group_alive(pgid)]
     assert not run.shm_leftovers()
     bag = read_episode_bag(bag_dir(run))  # strict: a bag closed properly

@@ -164,6 +164,8 @@ class EmulatedArena:
         self.down = [DelayLine(*link, rng) for _ in range(n)]  # host -> robot
         self.up = [DelayLine(*link, rng) for _ in range(n)]  # robot -> host
         self.tracker_line = DelayLine(options.tracker_latency, 0.0, 0.0, rng)
+        #: Telemetry frames each firmware made while its radio was silent (never sent).
+        self.unsent = [0] * n
         self.physics: Physics | None = None
         self.episode_wall: float | None = None  # wall time of the latest announcement
         self.adc_sent: list[tuple[int, ...]] = [()] * n
@@ -251,7 +253,9 @@ class EmulatedArena:
             speeds[i] = [pwm_to_permille(pwm_l, bool(dir_l), self.options.deadband),
                          pwm_to_permille(pwm_r, bool(dir_r), self.options.deadband)]
             for frame in firmware.frames():
-                if not silent:
+                if silent:
+                    self.unsent[i] += 1
+                else:
                     self.up[i].put(frame, now)
             host = self.host[i]
             if host is not None:

@@ -170,6 +170,9 @@ def run(options: argparse.Namespace, extra: list[str], stop: dict) -> int:
         print(f'driver_hil: the firmwares ran {ticks * TICK_US / 1e6:.1f} s in {wall:.1f} s '
               f'of wall time ({100 * ticks * TICK_US / 1e6 / max(wall, 1e-9):.0f} % of real '
               'time)', flush=True)
+        if arena.options.silence:
+            print(f'driver_hil: telemetry frames unsent while silent, per robot: '
+                  f'{" ".join(map(str, arena.unsent))}', flush=True)
     return status
 
 
