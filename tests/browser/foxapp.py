@@ -126,17 +126,11 @@ class FoxgloveApp:
                     timeout=max(1.0, deadline - time.monotonic()) * 1000)
             # The data source sidebar lists topics once the player is up, on its Topics tab:
             # Foxglove turns to the Problems tab when the player reports a problem (a transient
-            # one too), which hides the list, so show the Topics tab before each look.
+            # one too), which hides the list, so show the Topics tab before each look. The
+            # list draws only the rows in view, and /world/status sorts near its end: filter
+            # the list to it, then clear the filter.
             waiting_for = 'the data source to list /world/status'
-            listed = self.page.get_by_text('/world/status', exact=True).first
-            while True:
-                self.show_tab('Topics')
-                try:
-                    listed.wait_for(timeout=2000)
-                    break
-                except PlaywrightTimeout:
-                    if time.monotonic() > deadline:
-                        raise
+            self.wait_listed('/world/status', deadline)
         except PlaywrightTimeout as error:
             # What the page showed and said: the next failure names its cause.
             shot = self.save('open_timed_out')
@@ -149,6 +143,26 @@ class FoxgloveApp:
             raise RuntimeError(f'the page could not mount the app: {error}')
         self.dismiss_tips()
         return time.monotonic() - start
+
+    def wait_listed(self, topic: str, deadline: float) -> None:
+        """Wait until the data source sidebar's Topics tab lists ``topic`` (by the monotonic
+        ``deadline``), its filter set to the topic meanwhile and cleared after."""
+        search = self.page.get_by_placeholder('Filter by topic')
+        listed = self.page.get_by_text(topic, exact=True).first
+        try:
+            while True:
+                self.show_tab('Topics')
+                if search.count():
+                    search.first.fill(topic)
+                try:
+                    listed.wait_for(timeout=2000)
+                    return
+                except PlaywrightTimeout:
+                    if time.monotonic() > deadline:
+                        raise
+        finally:
+            if search.count():
+                search.first.fill('')
 
     def dismiss_tips(self) -> None:
         """Close the 3D panel's first-use tooltip ("Open settings ...") if it is shown."""
