@@ -148,7 +148,8 @@ class FoxgloveApp:
         """Wait until the data source sidebar's Topics tab lists ``topic`` (by the monotonic
         ``deadline``), its filter set to the topic meanwhile and cleared after."""
         search = self.page.get_by_placeholder('Filter by topic')
-        listed = self.page.get_by_text(topic, exact=True).first
+        # Visible ones only: the first in the page's order may be a hidden copy of the text.
+        listed = self.page.get_by_text(topic, exact=True).filter(visible=True).first
         try:
             while True:
                 self.show_tab('Topics')
