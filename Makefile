@@ -13,8 +13,8 @@ PY := $(VENV)/bin/python
 PACKAGES := src/mona_controller src/swarm_world src/swarm_metrics src/swarm_supervisor
 STUDY_OUT ?= results/study
 
-.PHONY: venv run test test-setup check lint typecheck bench sensitivity clean firmware-tools firmware \
-	browser-tools system-tools conformance
+.PHONY: venv run test test-setup check lint typecheck bench sensitivity clean firmware-tools \
+	firmware browser-tools system-tools conformance
 
 venv: $(VENV)/.installed
 
@@ -39,7 +39,7 @@ test: test-setup
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
 
 # make test's steps before the tests, side by side (the venv beside the Debian packages and npm;
-# each step's output printed whole when it ends): about a minute less on a fresh machine.
+# each step's output printed whole when it ends). Not yet timed on a machine without them.
 test-setup:
 	@$(MAKE) --no-print-directory -j5 -Otarget lint typecheck firmware-tools browser-tools \
 		system-tools
