@@ -20,7 +20,7 @@ from shown import expected_at
 from liverun import LEGACY_SUBPROTOCOL, SharedRun, accepts_legacy_subprotocol
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
-SEEK = 90.5  # after the 90 s cue map, between two metric samples
+SEEK = 70.5  # after the 70 s cue map, between two metric samples
 #: examples/obstacle_layout.yaml's six pillars (r = 6 cm) alone (the wedge and the wall add).
 PILLARS = 6 * np.pi * 0.06 ** 2
 
@@ -28,10 +28,10 @@ PILLARS = 6 * np.pi * 0.06 ** 2
 @pytest.fixture
 def run(node_live: SharedRun) -> SharedRun:
     """The node system's lingering live run (tests/liverun.py): lockstep, N = 8, seed 4,
-    120 s, among examples/obstacle_layout.yaml's obstacles. Lockstep runs about as fast as
+    80 s, among examples/obstacle_layout.yaml's obstacles. Lockstep runs about as fast as
     real time here; the page opens as soon as the live node listens (the world waits for the
-    controllers meanwhile), and 120 sim seconds leave time to load it and look while the
-    episode runs, even on a busy machine."""
+    controllers meanwhile), and 80 sim seconds leave time to load it and read a running status
+    while the episode runs, even on a busy machine (the panels may fill after the end)."""
     return node_live
 
 
