@@ -16,15 +16,19 @@ STUDY_OUT ?= results/study
 .PHONY: venv run test test-setup check lint typecheck bench sensitivity clean firmware-tools \
 	firmware browser-tools system-tools conformance
 
-venv: $(VENV)/.installed
+venv: $(VENV)/.warmed
 
-# The last step fills numba's cache serially, before make run or make test start processes
-# side by side (docs/architecture.md "Numba's cache"; about a minute on a fresh clone).
 $(VENV)/.installed: requirements.txt $(foreach p,$(PACKAGES),$(p)/setup.py)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt
 	$(PY) -m pip install --quiet $(foreach p,$(PACKAGES),-e $(p))
+	touch $@
+
+# Fill numba's cache in one process, before make run or make test start processes side by side
+# (docs/architecture.md "Numba's cache"; 42 s on a fresh clone). Lint and types need only the
+# installed venv, so make test runs them beside it.
+$(VENV)/.warmed: $(VENV)/.installed
 	$(PY) -m swarm_supervisor.engine.warm
 	touch $@
 
@@ -38,21 +42,22 @@ TEST_JOBS ?= 4
 test: test-setup
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
 
-# make test's steps before the tests, side by side (the venv beside the Debian packages and npm;
-# each step's output printed whole when it ends). Not yet timed on a machine without them.
+# make test's steps before the tests, side by side (numba's warm-up beside lint and types, all
+# beside the Debian packages and npm; each step's output printed whole when it ends). Not yet
+# timed on a machine without the tools.
 test-setup:
-	@$(MAKE) --no-print-directory -j5 -Otarget lint typecheck firmware-tools browser-tools \
-		system-tools
+	@$(MAKE) --no-print-directory -j6 -Otarget venv lint typecheck firmware-tools \
+		browser-tools system-tools
 
-check: lint typecheck
+check: venv lint typecheck
 	$(PY) -m pytest tests/unit -q -n $(TEST_JOBS)
 
-lint: venv
+lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check .
 
 # The types of every module but the ROS adapters, the pure cores strictly (folder rules:
 # pyproject.toml, [tool.mypy])
-typecheck: venv
+typecheck: $(VENV)/.installed
 	$(VENV)/bin/mypy
 
 # The sensitivity design of docs/model.md (180 episodes of 4000 s; resumes a partial run)
