@@ -29,7 +29,7 @@ def test_a_world_with_the_beams_reversed_fails_the_beam_order_rule(tmp_path):
               f'--population {{population}} -- {world}'
     report = tmp_path / 'report.xml'
     result = subprocess.run(
-        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q',
+        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
          '-p', 'no:cacheprovider', '--world-cmd', command, f'--junitxml={report}'],
         capture_output=True, text=True, timeout=300, cwd=HERE.parents[1])
     assert result.returncode == 1, result.stdout[-3000:]  # tests failed (not an error)
@@ -40,6 +40,6 @@ def test_a_world_with_the_beams_reversed_fails_the_beam_order_rule(tmp_path):
         outcomes[name] = outcomes.get(name, False) or failed
     failed = {name for name, bad in outcomes.items() if bad}
     assert 'test_beams_run_right_to_left' in failed, result.stdout[-3000:]
-    assert failed <= BEAM_RULES, failed - BEAM_RULES
+    assert failed <= BEAM_RULES, (failed - BEAM_RULES, result.stdout[-6000:])
     # Everything the relay does not touch still conforms.
     assert len(outcomes) - len(failed) >= 20
