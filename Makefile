@@ -42,7 +42,7 @@ run: venv
 
 # pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
 # or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
-# (2026-12-04): 22.6 min wall idle (pytest 1184 s), 29.1 min under ../shared/tools/under-load.
+# (2026-12-04): 17.5 min wall idle (pytest 946 s), 21.8 min under ../shared/tools/under-load.
 TEST_JOBS ?= 4
 test: test-setup
 	MONA_SWARM_FOXGLOVE_CACHE='$(FOXGLOVE_CACHE)' $(PY) -m pytest -n $(TEST_JOBS)
