@@ -4,7 +4,6 @@ the rule that is broken."""
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
@@ -12,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from implementations import IMPLEMENTATIONS
+from inner_suite import run_rules
 
 pytestmark = [pytest.mark.ros, pytest.mark.selftest]
 
@@ -28,10 +28,7 @@ def test_a_world_with_the_beams_reversed_fails_the_beam_order_rule(tmp_path):
     command = f'{sys.executable} {HERE / "broken" / "reversed_beams.py"} ' \
               f'--population {{population}} -- {world}'
     report = tmp_path / 'report.xml'
-    result = subprocess.run(
-        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
-         '-p', 'no:cacheprovider', '--world-cmd', command, f'--junitxml={report}'],
-        capture_output=True, text=True, timeout=300, cwd=HERE.parents[1])
+    result = run_rules('--world-cmd', command, f'--junitxml={report}', timeout=300)
     assert result.returncode == 1, result.stdout[-3000:]  # tests failed (not an error)
     outcomes = {}
     for case in ElementTree.parse(report).getroot().iter('testcase'):

@@ -7,18 +7,16 @@ with a user's controller kind, the plug-in of docs/extending.md, as its controll
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness import REPO, recipes
 from implementations import IMPLEMENTATIONS
+from inner_suite import run_rules
 
 pytestmark = [pytest.mark.ros, pytest.mark.selftest]
 
-HERE = Path(__file__).resolve().parent
 OTHERS = list(IMPLEMENTATIONS)[1:]
 
 
@@ -28,10 +26,7 @@ def test_the_implementation_passes_every_rule(name):
         missing = [tool for tool in ('avr-gcc', 'make', 'cc') if shutil.which(tool) is None]
         if missing or not Path('/usr/include/simavr/sim_avr.h').exists():
             pytest.skip(f'{name} needs {missing or "simavr"}: make firmware-tools')
-    command = [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
-               '-p', 'no:cacheprovider', '--world-cmd', name]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600,
-                            cwd=HERE.parents[1])
+    result = run_rules('--world-cmd', name, timeout=600)
     first = ''
     if result.returncode != 0 and IMPLEMENTATIONS[name].mode == 'realtime':
         # A realtime world does not wait for the suite's scripted robots: on a busy 2-core
@@ -41,8 +36,7 @@ def test_the_implementation_passes_every_rule(name):
         # which must pass; a failure shows the first run's failures with the second's.
         first = f'first run:\n{result.stdout[-3000:]}\nsecond run:\n'
         print(first)
-        result = subprocess.run(command, capture_output=True, text=True, timeout=600,
-                                cwd=HERE.parents[1])
+        result = run_rules('--world-cmd', name, timeout=600)
     assert result.returncode == 0, first + result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
 
@@ -53,10 +47,8 @@ def test_a_users_controller_kind_passes_every_rule(tmp_path: Path):
     params = tmp_path / 'params.yaml'
     params.write_text('/**:\n  ros__parameters:\n    plugins: [shy.py]\n'
                       '    controller: {kind: shy}\n')
-    result = subprocess.run(
-        [sys.executable, '-m', 'pytest', str(HERE / 'test_interfaces.py'), '-q', '-rfE',
-         '-p', 'no:cacheprovider', '--params', str(params), '--basetemp', str(tmp_path / 'run')],
-        capture_output=True, text=True, timeout=600, cwd=HERE.parents[1])
+    result = run_rules('--params', str(params), '--basetemp', str(tmp_path / 'run'),
+                       timeout=600)
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
     logs = list((tmp_path / 'run').rglob('controllers.log'))  # the kind the nodes ran
