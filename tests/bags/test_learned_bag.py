@@ -33,7 +33,7 @@ COMPANY = {'cleaning_quorum': 2, 'cleaning_range': 0.6}
 def test_a_shipped_controller_as_nodes_records_the_embedded_bag(tmp_path, name):
     shipped = load_config(CONTROLLERS / name)
     config = dataclasses.replace(load_config(CONFIG), controller=shipped.controller).replace(
-        world=COMPANY, episode={'population': 8, 'duration': 16.0, 'seed': 4})
+        world=COMPANY, episode={'population': 8, 'duration': 8.0, 'seed': 4})
     path = tmp_path / 'learned.yaml'
     write_ros_yaml(config, path)
     run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--mode', 'lockstep'])

@@ -1,6 +1,6 @@
 """The node system across two "hosts": two network namespaces joined by a veth pair,
 the core (world, metrics, supervisor) in one, the five controllers in the other, discovering
-each other by unicast over the veth with the profile ``--peers`` writes. A 60 s lockstep
+each other by unicast over the veth with the profile ``--peers`` writes. A 20 s lockstep
 episode must give the single-host run's record: test_system.py holds the single-host bag to the
 embedded runner bit for bit, so this test holds the two-host bag to the embedded runner too
 (the same comparisons), rather than spending another minute on a second ROS run.
@@ -27,7 +27,7 @@ from swarmrun import CONFIG, SwarmRun, group_alive
 
 pytestmark = pytest.mark.ros
 
-POPULATION, DURATION, SEED = 5, 60.0, 7
+POPULATION, DURATION, SEED = 5, 20.0, 7
 METRICS = ('mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
 #: Any domain: each namespace has its own ports, so no other run on the machine can collide.
 DOMAIN = 42

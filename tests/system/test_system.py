@@ -1,6 +1,6 @@
-"""The node system as real processes, started by scripts/swarm.sh: a 60 s lockstep episode of
-five robots and what it leaves behind (the bag, the parity with the embedded runner, the
-online metrics), bad parameters, and Ctrl-C / SIGTERM to the script."""
+"""The node system as real processes, started by scripts/swarm.sh: a 20 s lockstep episode of
+five robots (625 steps, 3 encounters) and what it leaves behind (the bag, the parity with the
+embedded runner, the online metrics), bad parameters, and Ctrl-C / SIGTERM to the script."""
 
 from __future__ import annotations
 
@@ -27,14 +27,14 @@ from swarmrun import CONFIG, SWARM, SwarmRun, group_alive
 
 pytestmark = pytest.mark.ros
 
-POPULATION, DURATION, SEED = 5, 60.0, 7
+POPULATION, DURATION, SEED = 5, 20.0, 7
 METRICS = ('mean_cue', 'mean_cue_fraction', 'ratio_near_source', 'coherency')
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
 
 @pytest.fixture(scope='module')
 def finished(tmp_path_factory: pytest.TempPathFactory):
-    """One lockstep episode (N = 5, 60 s, seed 7) run to the end; (run, exit status)."""
+    """One lockstep episode (N = 5, 20 s, seed 7) run to the end; (run, exit status)."""
     run = SwarmRun(tmp_path_factory.mktemp('lockstep') / 'run',
                    ['--population', str(POPULATION), '--duration', str(DURATION),
                     '--seed', str(SEED), '--mode', 'lockstep'])
@@ -93,7 +93,7 @@ def test_bag_opens_with_rosbags_and_mcap(finished):
     assert topics['/world/cue_map'] == 'sensor_msgs/msg/Image'
     for name in METRICS:
         assert topics[f'/metrics/{name}'] == 'std_msgs/msg/Float64'
-    # One sample per simulated second, t = 0 .. 60 s, logged at the sim time it describes.
+    # One sample per simulated second, t = 0 .. 20 s, logged at the sim time it describes.
     assert metric_times == [k * 1_000_000_000 for k in range(int(DURATION) + 1)]
     assert all(counts[f'/metrics/{name}'] == int(DURATION) + 1 for name in METRICS)
     assert announcement['seed'] == SEED and announcement['population'] == POPULATION
