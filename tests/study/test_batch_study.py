@@ -78,3 +78,21 @@ def test_run_with_several_seeds_writes_each_as_alone(tmp_path):
         assert (tmp_path / 'many' / 's7' / name).read_bytes() == \
             (tmp_path / 'one' / name).read_bytes()
     assert outputs.episode_complete(tmp_path / 'many' / 's3')
+
+
+def test_an_episode_without_its_picture_is_pending_only_where_pictures_are_asked(tmp_path):
+    # A calibration's screening writes its episodes without the final cue map (they are
+    # scored and deleted); a study that keeps them runs any such episode again, drawn.
+    config = load_config().replace(study={**SMALL, 'populations': [3], 'speeds': [0.08],
+                                          'seeds': [1], 'factors': {}})
+    _, folders, pending = study.plan(config, tmp_path, picture=False)
+    assert len(pending) == 1 and not pending[0].picture
+    study.run_and_write(pending)
+    (folder,) = folders.values()
+    assert outputs.episode_complete(folder) and not (folder / outputs.FINAL_PNG).exists()
+    assert study.plan(config, tmp_path, picture=False)[2] == []
+    (again,) = study.plan(config, tmp_path)[2]
+    assert again.picture
+    study.run_and_write([again])
+    assert (folder / outputs.FINAL_PNG).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    assert study.plan(config, tmp_path)[2] == []

@@ -173,7 +173,7 @@ def evaluate(design: CalibrationDesign, out: Path, batch: Sequence[tuple[int, di
              start_method: str = 'spawn', keep_episodes: bool = False) -> list[TrialResult]:
     """Run the screening studies of a batch of trials together and score each one; each
     trial's folder keeps trial.json and its all_metrics.csv (its episodes only with
-    ``keep_episodes``)."""
+    ``keep_episodes``; the episodes it deletes get no picture)."""
     planned, tasks, scored = [], [], []
     for number, values in batch:
         folder = trial_dir(out, number)
@@ -181,7 +181,7 @@ def evaluate(design: CalibrationDesign, out: Path, batch: Sequence[tuple[int, di
             scored.append(TrialResult.from_json((folder / TRIAL_FILE).read_text()))
             continue
         config = design.trial_config(values, design.screen)
-        specs, folders, pending = plan(config, folder)
+        specs, folders, pending = plan(config, folder, picture=keep_episodes)
         planned.append((number, values, folder, [folders[spec] for spec in specs]))
         tasks += pending
     run_tasks(tasks, jobs=jobs, progress=False, start_method=start_method,

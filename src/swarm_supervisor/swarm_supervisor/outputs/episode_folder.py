@@ -19,7 +19,6 @@ import numpy as np
 from swarm_metrics.metrics import COLUMNS
 from swarm_supervisor import __version__
 from swarm_supervisor.engine.runner import EpisodeResult
-from swarm_supervisor.outputs.pictures import save_cue_map
 
 METRICS_FILE = 'metrics.csv'
 EPISODE_FILE = 'episode.json'
@@ -72,7 +71,8 @@ def episode_record(result: EpisodeResult, runner: str = 'embedded') -> dict:
 
 
 def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = 'embedded',
-                  extra: dict[str, Any] | None = None, omit: Iterable[str] = ()) -> Path:
+                  extra: dict[str, Any] | None = None, omit: Iterable[str] = (),
+                  picture: bool = True) -> Path:
     """Write every output of one episode into ``out_dir`` (created if needed).
 
     Args:
@@ -81,6 +81,9 @@ def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = '
         runner: recorded as episode.json's ``runner``.
         extra: more episode.json fields (e.g. what a bag tells), added after the others.
         omit: episode.json fields to leave out (e.g. timing a bag cannot give).
+        picture: also draw the final cue map (FINAL_PNG). Off for episodes that are only
+            scored and deleted (a calibration's screening): matplotlib takes longer to draw
+            it than a short episode takes to run.
 
     Returns:
         ``out_dir``.
@@ -97,12 +100,8 @@ def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = '
             len(times), len(result.final_poses), 3),
         final_cue=result.final_cue, final_poses=result.final_poses,
         initial_poses=result.initial_poses)
-    config = result.config
-    save_cue_map(out / FINAL_PNG, result.final_cue, result.final_poses,
-                 config.world.arena_side, config.mona.body_radius,
-                 obstacles=config.world.arena().obstacles,
-                 title=f'N = {config.episode.population}, v = {config.controller.speed * 100:g}'
-                       f' cm/s, seed {config.episode.seed}, t = {result.metrics[-1]["t"]:g} s')
+    if picture:
+        _save_final_picture(out / FINAL_PNG, result)
     record = episode_record(result, runner)
     for key in omit:
         record.pop(key, None)
@@ -111,6 +110,18 @@ def write_episode(result: EpisodeResult, out_dir: str | Path, *, runner: str = '
     temporary.write_text(json.dumps(record, indent=2) + '\n')
     os.replace(temporary, out / EPISODE_FILE)
     return out
+
+
+def _save_final_picture(path: Path, result: EpisodeResult) -> None:
+    """The final cue map with the robots, titled with the episode's cell and seed."""
+    from swarm_supervisor.outputs.pictures import save_cue_map  # matplotlib: only to draw
+
+    config = result.config
+    save_cue_map(path, result.final_cue, result.final_poses,
+                 config.world.arena_side, config.mona.body_radius,
+                 obstacles=config.world.arena().obstacles,
+                 title=f'N = {config.episode.population}, v = {config.controller.speed * 100:g}'
+                       f' cm/s, seed {config.episode.seed}, t = {result.metrics[-1]["t"]:g} s')
 
 
 def episode_complete(out_dir: str | Path) -> bool:

@@ -72,10 +72,12 @@ def _check_kept(folder: Path, config: SwarmConfig) -> None:
                 f'needs {value!r}: --out holds a study of another design; {FIX}')
 
 
-def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False
+def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False,
+         picture: bool = True
          ) -> tuple[list[EpisodeSpec], dict[EpisodeSpec, Path], list[EpisodeTask]]:
     """The episodes of ``config.study`` in ``out_dir``: every spec, its folder, and the tasks of
-    those not yet complete there (``bag``: also those without their bag).
+    those not yet complete there (``bag``: also those without their bag; ``picture``: also
+    those without their final cue map, which the tasks draw only with it).
 
     Episodes already complete are kept, after checking they were run with the same parameters.
     Nothing is written (the workers create the folders).
@@ -91,10 +93,11 @@ def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False
     for spec in specs:
         episode = episode_config(config, spec)
         if outputs.episode_complete(folders[spec]) and (
-                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()):
+                not bag or (folders[spec] / BAG_DIR / 'metadata.yaml').exists()) and (
+                not picture or (folders[spec] / outputs.FINAL_PNG).exists()):
             _check_kept(folders[spec], episode)
         else:
-            pending.append(EpisodeTask(episode, times, str(folders[spec]), bag))
+            pending.append(EpisodeTask(episode, times, str(folders[spec]), bag, picture))
     return specs, folders, pending
 
 

@@ -35,6 +35,7 @@ class EpisodeTask:
     snapshot_times: tuple[float, ...]  #: when to keep cue maps (s)
     folder: str  #: the episode folder to write
     bag: bool = False  #: also record its bag into ``<folder>/bag``
+    picture: bool = True  #: also draw its final cue map (off: a calibration's screening)
 
     @property
     def cost(self) -> float:
@@ -89,7 +90,7 @@ def run_and_write(tasks: Sequence[EpisodeTask]) -> list[Ran]:
                 recorders[k].check(result)
                 extra = {'bag': BAG_DIR}
             progress.report(tasks[k].config.episode.duration - reported[k])
-            outputs.write_episode(result, partials[k], extra=extra)
+            outputs.write_episode(result, partials[k], extra=extra, picture=tasks[k].picture)
             move_into_place(partials[k], tasks[k].folder)
 
         run_batch([task.config for task in tasks], snapshot_times=tasks[0].snapshot_times,
