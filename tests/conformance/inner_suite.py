@@ -3,11 +3,20 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+
+#: The rules that hold the probe's record of every robot's readings to every step. The world's
+#: readings writers keep the last 5 (the page's QoS); a probe held off the CPU long enough on
+#: a loaded machine misses a few steps' readings that the world did publish (seen twice in
+#: about ten runs under ../shared/tools/under-load: 4 consecutive steps of one robot, in a
+#: run whose every other rule passed). Only when these alone fail is a run tried again.
+READINGS_RULES = frozenset({'test_lockstep_readings_are_stamped_start_ns_plus_k_step_ns',
+                            'test_ground_and_proximity_have_the_same_stamp'})
 
 
 def run_rules(*args: str, timeout: float) -> subprocess.CompletedProcess:
@@ -19,3 +28,23 @@ def run_rules(*args: str, timeout: float) -> subprocess.CompletedProcess:
                '-p', 'no:cacheprovider', *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout,
                           cwd=HERE.parents[1], env=env)
+
+
+def failed_rules(stdout: str) -> set[str]:
+    """The rules a run's -rfE summary lists as failed or in error (parameters dropped)."""
+    return set(re.findall(r'^(?:FAILED|ERROR) \S*test_interfaces\.py::(\w+)', stdout,
+                          re.MULTILINE))
+
+
+def run_rules_once_more_if_readings_lost(*args: str, timeout: float
+                                         ) -> tuple[str, subprocess.CompletedProcess]:
+    """:func:`run_rules`, and once more when only :data:`READINGS_RULES` failed; (what the
+    first run printed when there was a second, the last run)."""
+    result = run_rules(*args, timeout=timeout)
+    failed = failed_rules(result.stdout)
+    if result.returncode == 0 or not failed or not failed <= READINGS_RULES:
+        return '', result
+    first = f'first run (only the readings rules failed: {sorted(failed)}):\n' \
+            f'{result.stdout[-3000:]}\nsecond run:\n'
+    print(first)
+    return first, run_rules(*args, timeout=timeout)
