@@ -36,15 +36,15 @@ def failed_rules(stdout: str) -> set[str]:
                           re.MULTILINE))
 
 
-def run_rules_once_more_if_readings_lost(*args: str, timeout: float
-                                         ) -> tuple[str, subprocess.CompletedProcess]:
-    """:func:`run_rules`, and once more when only :data:`READINGS_RULES` failed; (what the
-    first run printed when there was a second, the last run)."""
+def run_rules_once_more(*args: str, timeout: float, after_any_failure: bool = False
+                        ) -> tuple[str, subprocess.CompletedProcess]:
+    """:func:`run_rules`, and once more when only :data:`READINGS_RULES` failed (or, with
+    ``after_any_failure``, when anything did); (what the first run printed when there was a
+    second, the last run)."""
     result = run_rules(*args, timeout=timeout)
     failed = failed_rules(result.stdout)
-    if result.returncode == 0 or not failed or not failed <= READINGS_RULES:
+    if result.returncode == 0 or not (after_any_failure or failed and failed <= READINGS_RULES):
         return '', result
-    first = f'first run (only the readings rules failed: {sorted(failed)}):\n' \
-            f'{result.stdout[-3000:]}\nsecond run:\n'
+    first = f'first run (failed: {sorted(failed)}):\n{result.stdout[-3000:]}\nsecond run:\n'
     print(first)
     return first, run_rules(*args, timeout=timeout)

@@ -13,7 +13,7 @@ import pytest
 
 from harness import REPO, recipes
 from implementations import IMPLEMENTATIONS
-from inner_suite import run_rules, run_rules_once_more_if_readings_lost
+from inner_suite import run_rules_once_more
 
 pytestmark = [pytest.mark.ros, pytest.mark.selftest]
 
@@ -26,16 +26,13 @@ def test_the_implementation_passes_every_rule(name):
         missing = [tool for tool in ('avr-gcc', 'make', 'cc') if shutil.which(tool) is None]
         if missing or not Path('/usr/include/simavr/sim_avr.h').exists():
             pytest.skip(f'{name} needs {missing or "simavr"}: make firmware-tools')
-    first, result = run_rules_once_more_if_readings_lost('--world-cmd', name, timeout=600)
-    if result.returncode != 0 and not first and IMPLEMENTATIONS[name].mode == 'realtime':
-        # A realtime world does not wait for the suite's scripted robots: on a busy 2-core
-        # machine an answer can come later than `absent_after` steps, so a robot the rules
-        # need counts absent (they answer from a process of their own, scripted.py, not
-        # behind the probe's records, but a machine can be busier still). One more run,
-        # which must pass; a failure shows the first run's failures with the second's.
-        first = f'first run:\n{result.stdout[-3000:]}\nsecond run:\n'
-        print(first)
-        result = run_rules('--world-cmd', name, timeout=600)
+    # A realtime world does not wait for the suite's scripted robots: on a busy 2-core
+    # machine an answer can come later than `absent_after` steps, so a robot the rules need
+    # counts absent (they answer from a process of their own, scripted.py, not behind the
+    # probe's records, but a machine can be busier still). So after any failure one more
+    # run, which must pass; a failure shows the first run's failures with the second's.
+    first, result = run_rules_once_more('--world-cmd', name, timeout=600,
+                                        after_any_failure=IMPLEMENTATIONS[name].mode == 'realtime')
     assert result.returncode == 0, first + result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
 
@@ -46,7 +43,7 @@ def test_a_users_controller_kind_passes_every_rule(tmp_path: Path):
     params = tmp_path / 'params.yaml'
     params.write_text('/**:\n  ros__parameters:\n    plugins: [shy.py]\n'
                       '    controller: {kind: shy}\n')
-    first, result = run_rules_once_more_if_readings_lost(
+    first, result = run_rules_once_more(
         '--params', str(params), '--basetemp', str(tmp_path / 'run'), timeout=600)
     assert result.returncode == 0, first + result.stdout[-4000:] + result.stderr[-2000:]
     assert ' passed' in result.stdout.splitlines()[-1]
