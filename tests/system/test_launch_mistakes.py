@@ -51,6 +51,38 @@ def test_sigterm_during_start_up_stops_every_process_within_15_s(swarm, after):
     assert took < STOP_LIMIT
 
 
+#: A metric of the user's that takes long: the launcher's checks take the first state's
+#: metrics once, so a SIGTERM comes while they run (as when a loaded machine slows them).
+SLOW_METRIC = """
+import pathlib, time
+from swarm_metrics.metrics import Metric, register
+
+def slow(sample):
+    pathlib.Path(__file__).with_suffix('.started').touch()
+    time.sleep(60)
+    return 0.0
+
+register(Metric('slow', '1', 'takes a minute', slow, 'slow'))
+"""
+
+
+def test_sigterm_during_the_checks_ends_the_launcher_at_once(swarm, tmp_path: Path):
+    (tmp_path / 'slow.py').write_text(SLOW_METRIC)
+    (tmp_path / 'params.yaml').write_text(
+        '/**:\n  ros__parameters:\n    plugins: [slow.py]\n')
+    run = swarm('--config', str(tmp_path / 'params.yaml'), '--population', '3')
+    deadline = time.monotonic() + 60
+    while not (tmp_path / 'slow.started').exists():
+        assert run.process.poll() is None and time.monotonic() < deadline, run.stderr
+        time.sleep(0.1)
+    os.kill(run.process.pid, signal.SIGTERM)
+    sent = time.monotonic()
+    assert run.wait(30) == 143, run.stderr
+    assert time.monotonic() - sent < 5, run.stderr  # not after the metric's minute
+    assert 'SIGTERM received during the checks: nothing started' in run.stderr
+    assert 'Traceback' not in run.stderr and not run.nodes()
+
+
 def test_an_impossible_population_is_refused_before_any_node_starts(tmp_path: Path):
     out = tmp_path / 'run'
     env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}'

@@ -292,36 +292,53 @@ class Run:
         return failures
 
 
+class ChecksTerminated(BaseException):
+    """A SIGTERM came while the launcher checked its options (nothing had started).
+
+    A BaseException, as KeyboardInterrupt: what catches a user's metric's errors lets it
+    through."""
+
+
+def _terminate_checks(sig: int, frame: object) -> None:
+    raise ChecksTerminated
+
+
 def launch(options: argparse.Namespace) -> int:
     """Run the node system of ``options`` (``mona-swarm launch``); returns the exit status
     (:mod:`swarm_supervisor.exits`)."""
-    caught: list[str] = []  # a SIGTERM before the run's own handler: start nothing, end 143
-    signal.signal(signal.SIGTERM, lambda sig, frame: caught.append('SIGTERM'))
+    caught: list[str] = []  # a SIGTERM after the checks, before the run's own handler
+    signal.signal(signal.SIGTERM, _terminate_checks)  # during the checks: stop them at once
     try:
-        profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(default_profile())
-        executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
-        config = check_parameters(config_file(options), run_overrides(options))
-        check_roles(options, config.episode.population)
-        if getattr(options, 'linger', None) is not None and not options.live:
-            raise UsageError('--linger is for --live: it keeps the live view up after the run')
-        domain = options.domain if options.domain is not None else forced_domain()
-        if options.role != 'all' and domain is None:
-            raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
-                             'host), so that the hosts of the run find each other')
-        if 'supervisor' in ROLES[options.role]:  # the supervisor places the robots
-            check_fit(config, options.episodes,
-                      '--population' if options.population is not None else
-                      'episode.population')
-        if 'world' in ROLES[options.role]:  # its cue file, the metrics of its first state
-            check_inputs(config)
-        check_participants(options, config.episode.population, domain)
-        if options.live:  # the live node would fail after the whole run
-            check_port(options.live_port, '--live-port')
-        check_profile(os.environ.get('SWARM_FASTDDS_PROFILE'))
-        address = local_address(options.peers) if options.peers else None
-        if options.peers and address is None:
-            raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
-                             "host; list every host's address, this one's too")
+        try:
+            profile = os.environ.get('SWARM_FASTDDS_PROFILE') or str(default_profile())
+            executables = {kind: find_executable(*where) for kind, where in EXECUTABLES.items()}
+            config = check_parameters(config_file(options), run_overrides(options))
+            check_roles(options, config.episode.population)
+            if getattr(options, 'linger', None) is not None and not options.live:
+                raise UsageError('--linger is for --live: it keeps the live view up after the run')
+            domain = options.domain if options.domain is not None else forced_domain()
+            if options.role != 'all' and domain is None:
+                raise UsageError(f'--role {options.role}: give --domain ID (the same on every '
+                                 'host), so that the hosts of the run find each other')
+            if 'supervisor' in ROLES[options.role]:  # the supervisor places the robots
+                check_fit(config, options.episodes,
+                          '--population' if options.population is not None else
+                          'episode.population')
+            if 'world' in ROLES[options.role]:  # its cue file, the metrics of its first state
+                check_inputs(config)
+            check_participants(options, config.episode.population, domain)
+            if options.live:  # the live node would fail after the whole run
+                check_port(options.live_port, '--live-port')
+            check_profile(os.environ.get('SWARM_FASTDDS_PROFILE'))
+            address = local_address(options.peers) if options.peers else None
+            if options.peers and address is None:
+                raise UsageError(f'--peers {",".join(options.peers)}: none is an address of this '
+                                 "host; list every host's address, this one's too")
+        finally:  # from here on a SIGTERM is remembered: start nothing, end 143
+            signal.signal(signal.SIGTERM, lambda sig, frame: caught.append('SIGTERM'))
+    except ChecksTerminated:  # under load the checks can take many seconds of a busy core
+        say('SIGTERM received during the checks: nothing started')
+        return exits.TERMINATED
     except UsageError as error:
         say(str(error))
         return exits.USAGE
