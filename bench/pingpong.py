@@ -23,7 +23,8 @@ import time
 
 import rclpy
 from geometry_msgs.msg import TwistStamped
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, LaserScan
@@ -118,7 +119,7 @@ def run_central(population: int, rounds: int, timeout: float = 120.0,
     connects within ``timeout`` wall seconds or a round stalls for 10 s.
     """
     node = Central(population, context=context)
-    executor = SingleThreadedExecutor(context=context)
+    executor = EventsExecutor(context=context)  # as the system's nodes (ros/spinning.py)
     executor.add_node(node)
     try:
         started = time.monotonic()
@@ -154,12 +155,13 @@ def run_responders(robots: list[int]) -> None:
     """Spin one responder node per robot in this process until SIGINT/SIGTERM."""
     rclpy.init()
     signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
-    executor = SingleThreadedExecutor()
+    executor = EventsExecutor()
     nodes = [Responder(i) for i in robots]
     for node in nodes:
         executor.add_node(node)
     try:
-        executor.spin()
+        while True:  # spin() and spin_once() without a timeout can block for good
+            executor.spin_once(timeout_sec=1.0)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

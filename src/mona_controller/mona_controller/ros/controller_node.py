@@ -19,7 +19,6 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import TwistStamped
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
@@ -43,6 +42,7 @@ from mona_controller.ros.messages import (
 )
 from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
+from mona_controller.ros.spinning import spin_until
 from mona_controller.schema import ParameterError, param, validate
 
 #: Wall seconds between checks that a world (or driver) listens to our commands.
@@ -260,12 +260,8 @@ def main(args: Sequence[str] | None = None) -> int:
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         ids = parse_robots(options.robots) if options.robots else [None]
-        executor = SingleThreadedExecutor()
-        for robot_id in ids:
-            nodes.append(ControllerNode(robot_id))
-            executor.add_node(nodes[-1])
-        while not all(node.finished.done() for node in nodes):
-            executor.spin_once()
+        nodes.extend(ControllerNode(robot_id) for robot_id in ids)
+        spin_until(nodes, lambda: all(node.finished.done() for node in nodes))
         status = 0
     except STOPPED as error:
         raise_unless_stopped(error)

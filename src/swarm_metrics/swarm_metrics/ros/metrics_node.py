@@ -39,6 +39,7 @@ from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
+from mona_controller.ros.spinning import spin_until
 from mona_controller.schema import ParameterError, param, validate
 from mona_controller.topics import CONTROLLER, SUPERVISOR, TOPICS, WORLD
 from swarm_metrics.bags.record import Closed, Row
@@ -325,7 +326,7 @@ def main(args: list[str] | None = None) -> int:
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         node = MetricsNode()
-        rclpy.spin_until_future_complete(node, node.done)
+        spin_until([node], node.done.done)
         status = node.done.result() if node.done.done() else 0
     except STOPPED as error:
         raise_unless_stopped(error)

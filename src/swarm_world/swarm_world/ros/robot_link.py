@@ -30,8 +30,8 @@ class RobotLink:
         self.scan_pub = node.create_publisher(LaserScan,
                                               qos.robot_topic(robot_id, qos.PROXIMITY),
                                               qos.SENSOR_QOS, event_callbacks=quiet_pub)
-        # state and cleaner before cmd_vel: when all are ready the executor takes them in this
-        # order (the controller publishes them in it).
+        # state and cleaner before cmd_vel: the executor (ros/spinning.py) handles them in the
+        # order they arrive, which is the order the controller publishes them in.
         self.state_sub = node.create_subscription(
             UInt8, qos.robot_topic(robot_id, qos.STATE), partial(on_state, robot_id),
             qos.STATE_QOS, event_callbacks=quiet_sub)

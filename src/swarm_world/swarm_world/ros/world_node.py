@@ -27,6 +27,7 @@ from mona_controller.mona import MonaParams
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros.messages import stamp_to_ns
 from mona_controller.ros.shutdown import STOPPED, deliver, raise_unless_stopped, teardown
+from mona_controller.ros.spinning import spin_until
 from mona_controller.schema import ParameterError
 from swarm_world.hosting import hold_failure, hold_until_ns
 from swarm_world.params import WorldNodeParams, WorldParams
@@ -67,9 +68,9 @@ class WorldNode(EpisodeHost):
 
     def on_deadline(self) -> None:
         """The lockstep deadline passed: the robots that did not answer hold still."""
-        # The executor runs ready timers before ready subscriptions: on a stalled machine the
-        # deadline can fire with the commands already waiting. Take those first, so a round
-        # is missed only when its commands really did not come.
+        # On a stalled machine the deadline's timer can come before the commands that arrived
+        # in time are handled. Take those first, so a round is missed only when its commands
+        # really did not come.
         stamp = self.lockstep.expected_ns
         for i in self.lockstep.waiting():
             self.links[i].take_waiting()
@@ -248,7 +249,7 @@ def run(make: Callable[[], EpisodeHost], name: str) -> int:
     status = 1  # an exception that escapes is a failure, also if teardown then hangs
     try:
         node = make()
-        rclpy.spin_until_future_complete(node, node.finished)
+        spin_until([node], node.finished.done)
         status = node.exit_status
         deliver([node])  # the final status and state reach every reader, also one that lost them
     except STOPPED as error:
