@@ -5,9 +5,8 @@ The system's nodes exchange several small messages per robot and step; with the
 (py-spy: 47 % of all samples of a 10-robot run inside ``wait_for_ready_callbacks``). rclpy's
 ``EventsExecutor`` (``rclpy.experimental``, in Jazzy's rclpy 7.1) queues ready entities in C++
 and calls only their callbacks: the same 10 robots x 30 s lockstep episode cost 34-45 CPU-s
-with the wait-set executor and 23-28 CPU-s with this one (world, controllers and
-metrics node), with the same bits
-(bench/bench_lockstep.py measures the rate).
+with the wait-set executor and 23-28 CPU-s with this one in the world, the controllers and the
+metrics node, with the same bits (bench/bench_lockstep.py measures the rate).
 
 Callbacks run in the order their messages arrived, which for one publisher's topics is the
 order it published them (the world relies on a controller's state and cleaner coming before
