@@ -15,6 +15,7 @@ from swarm_supervisor.cli import launch as launch_cli
 from swarm_supervisor.cli import main
 from swarm_supervisor.config import DEFAULT_CONFIG
 from swarm_supervisor.system import launcher
+from swarm_supervisor.system.node_commands import controller_groups, node_commands
 from swarm_supervisor.system.processes import (
     claim_domain,
     group_pids,
@@ -100,7 +101,7 @@ def test_a_bad_parameter_exits_2_before_anything_starts(tmp_path: Path, capsys):
     (1, 1, ['0']),
 ])
 def test_controller_groups(population, per_process, groups):
-    assert launcher.controller_groups(population, per_process) == groups
+    assert controller_groups(population, per_process) == groups
 
 
 def test_each_node_gets_the_parameters_and_its_own_options():
@@ -108,7 +109,7 @@ def test_each_node_gets_the_parameters_and_its_own_options():
                      '-p', 'clock_period:=1.0')
     out = Path('/results/run')
     executables = {kind: f'/bin/{kind}' for kind in launcher.EXECUTABLES}
-    commands = launcher.node_commands(parsed, 3, out, executables)
+    commands = node_commands(parsed, 3, out, executables)
     assert list(commands) == ['world', 'metrics', 'controller_0-1', 'controller_2',
                               'supervisor']
     common = ['--ros-args', '--params-file', str(DEFAULT_CONFIG),
@@ -121,9 +122,9 @@ def test_each_node_gets_the_parameters_and_its_own_options():
     assert commands['supervisor'] == ['/bin/supervisor', *common, '-p', 'episodes:=2',
                                       '-p', f'output_dir:={out}', '-p', 'recorders:=metrics']
     # The world's patience grows with the swarm, unless given.
-    many = launcher.node_commands(options('--population', '40'), 40, out, executables)
+    many = node_commands(options('--population', '40'), 40, out, executables)
     assert 'start_timeout:=120.0' in many['world']
-    given = launcher.node_commands(options('--start-timeout', '5'), 40, out, executables)
+    given = node_commands(options('--start-timeout', '5'), 40, out, executables)
     assert 'start_timeout:=5.0' in given['world']
 
 

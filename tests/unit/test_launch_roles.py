@@ -12,6 +12,7 @@ import pytest
 from swarm_supervisor.cli import launch as launch_cli
 from swarm_supervisor.cli import main
 from swarm_supervisor.system import launcher
+from swarm_supervisor.system.node_commands import controller_groups, node_commands
 from swarm_supervisor.system.processes import local_address, peers_profile
 
 EXECUTABLES = {kind: f'/bin/{kind}' for kind in launcher.EXECUTABLES}
@@ -20,7 +21,7 @@ NS = '{http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles}'
 
 def commands(*argv: str, population: int = 5) -> dict[str, list[str]]:
     parsed = launch_cli.build_parser().parse_args(list(argv))
-    return launcher.node_commands(parsed, population, Path('/tmp/out'), EXECUTABLES)
+    return node_commands(parsed, population, Path('/tmp/out'), EXECUTABLES)
 
 
 def test_each_role_starts_its_part():
@@ -37,8 +38,8 @@ def test_each_role_starts_its_part():
 
 
 def test_controller_groups_of_given_robots():
-    assert launcher.controller_groups(10, 2, [0, 1, 2, 7, 8]) == ['0-1', '2,7', '8']
-    assert launcher.controller_groups(10, 3) == ['0-2', '3-5', '6-8', '9']
+    assert controller_groups(10, 2, [0, 1, 2, 7, 8]) == ['0-1', '2,7', '8']
+    assert controller_groups(10, 3) == ['0-2', '3-5', '6-8', '9']
 
 
 @pytest.mark.parametrize('spec, ids', [('3', [3]), ('0-4', [0, 1, 2, 3, 4]),
