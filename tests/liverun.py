@@ -213,7 +213,8 @@ def node_live_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SharedRu
     out = tmp_path_factory.mktemp('node_live') / 'run'
     swarm = SwarmRun(out, ['--population', '8', '--duration', '80', '--seed', '4',
                            '--mode', 'lockstep', '--config', str(OBSTACLES), '--live',
-                           '--live-port', str(port), '--linger', '900'])
+                           '--live-port', str(port), '--linger', '900',
+                           '-p', 'real_time_factor:=1.0'])  # watchable: at most real time
     url = f'ws://127.0.0.1:{port}'
     try:
         yield SharedRun(swarm, 8, 4, 80.0, out, url, Watcher(url, watched_enough),

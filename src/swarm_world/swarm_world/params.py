@@ -223,6 +223,10 @@ class WorldNodeParams:
                       doc='lockstep: wait for every command; realtime: step on the wall clock')
     lockstep_deadline: float = param(2.0, unit='s (wall)', low=0.001, high=3600.0,
                                      doc='how long a lockstep round waits for the commands')
+    real_time_factor: float = param(0.0, unit='sim s per wall s', low=0.0, high=1e6,
+                                    doc='lockstep: step no faster than this (1.0: at most real '
+                                        'time, to watch a run live); 0: as fast as every '
+                                        'robot answers')
     absent_after: int = param(3, unit='steps', low=1, high=1_000_000,
                               doc='consecutive misses after which a robot is absent and no '
                                   'longer waited for (it rejoins when it answers)')

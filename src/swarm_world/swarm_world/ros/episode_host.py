@@ -86,6 +86,8 @@ class EpisodeHost(Node):
         self.resend_timer = None  # lockstep, step 0 only
         self.hold_timer = None  # a recorder lacks the start or (lockstep) fell behind
         self.held_since = None
+        self.pace_timer = None  # lockstep with real_time_factor: the next round's start
+        self.pace_origin: tuple[int, int] | None = None  # (wall ns, sim ns) of step 0
         self._last_heartbeat = self.wall.now()
         self.deadline_period = 0.0
         self.publish_status()
@@ -217,10 +219,11 @@ class EpisodeHost(Node):
 
     def _stop_timers(self) -> None:
         for timer in (self.connect_timer, self.step_timer, self.resend_timer,
-                      self.hold_timer):
+                      self.hold_timer, self.pace_timer):
             if timer is not None:
                 self.destroy_timer(timer)
         self.connect_timer = self.step_timer = self.resend_timer = self.hold_timer = None
+        self.pace_timer = None
         self.held_since = None
 
     # --- commands -----------------------------------------------------------------------

@@ -98,7 +98,7 @@ class WorldNode(EpisodeHost):
             return
         if self.poses_ns != self.time_ns:  # first, so a recorder held for can take its sample
             self._publish_poses()
-        if self._held_by_recorders(self._start_round):
+        if self._held_by_recorders(self._start_round) or self._paced(self._start_round):
             return
         self.lockstep.start_round(self.time_ns)
         # Step 0 may wait as long as connecting may take (new DDS matches can hold the first
@@ -145,6 +145,25 @@ class WorldNode(EpisodeHost):
                       fatal=False)
         else:
             self._heartbeat()
+        return True
+
+    def _paced(self, resume: Callable[[], None]) -> bool:
+        """With ``real_time_factor`` > 0: hold the next round (``resume`` it later) until the
+        wall clock since step 0 catches up with the sim time at that factor."""
+        if self.pace_timer is not None:
+            self.destroy_timer(self.pace_timer)
+            self.pace_timer = None
+        factor = self.options.real_time_factor
+        now = self.wall.now().nanoseconds
+        if factor <= 0 or self.world.steps == 0 or self.pace_origin is None:
+            self.pace_origin = (now, self.time_ns)
+            return False
+        due = self.pace_origin[0] + (self.time_ns - self.pace_origin[1]) / factor
+        if now >= due:
+            return False
+        if self.step_timer is not None:
+            self.step_timer.cancel()  # no deadline while no round is under way
+        self.pace_timer = self.create_timer((due - now) / 1e9, resume, clock=self.wall)
         return True
 
     def _arm_deadline(self, period: float) -> None:
