@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numba
 import numpy as np
 
 from mona_controller.mona import MonaParams
@@ -21,7 +20,14 @@ from swarm_world.params import WorldParams
 from swarm_world.physics import Physics, PhysicsBatch
 from swarm_world.sensing import noise
 from swarm_world.sensing.delay import CommandDelay
-from swarm_world.sensing.ground import NO_NOISE, ground_kernel, ground_many_kernel, sensor_geometry
+from swarm_world.sensing.ground import (
+    NO_NOISE,
+    field_list,
+    ground_kernel,
+    ground_many_kernel,
+    sensor_geometry,
+    set_field,
+)
 from swarm_world.sensing.headings import heading_trig
 from swarm_world.sensing.ir import proximity, proximity_many
 from swarm_world.sensing.params import SensingParams
@@ -326,7 +332,7 @@ class WorldBatch:
         # Each world's sensed field, in one list the compiled kernel takes, replaced when the
         # world's is a new array (a typed list returns new wrappers: compare the plain list's).
         self._field_list = [world.sensed_field() for world in worlds]
-        self._fields = numba.typed.List(self._field_list)
+        self._fields = field_list(self._field_list) if worlds else None
 
     @property
     def poses(self) -> np.ndarray:
@@ -351,7 +357,8 @@ class WorldBatch:
         for e, world in enumerate(self.worlds):
             field = world.sensed_field()
             if field is not self._field_list[e]:  # a new array (footprint, transport)
-                self._field_list[e] = self._fields[e] = field
+                self._field_list[e] = field
+                set_field(self._fields, e, field)
         extra = NO_NOISE
         if self._noisy_ground:
             extra = np.zeros((int(self.bounds[-1]), 2))

@@ -30,6 +30,7 @@ from swarm_metrics.metrics import ALL_PAIRS_MAX, coherency
 from swarm_supervisor.config import SwarmConfig, load_config, shipped
 from swarm_supervisor.engine.runner import run_batch, run_episode
 from swarm_world.company import in_company
+from swarm_world.sensing.ground import field_list, set_field
 
 #: The packages whose cached kernels are warmed.
 PACKAGES = ('mona_controller', 'swarm_world', 'swarm_metrics', 'swarm_supervisor')
@@ -109,8 +110,10 @@ def warm_kernels() -> Warmed:
     run_batch(episodes[:1])  # none with obstacles
     # What a tiny episode does not reach, called as the world and the metrics call it: the
     # cleaning quorum's count (a cleaning tick with robots cleaning, world.cleaning_quorum
-    # > 1) and coherency beyond ALL_PAIRS_MAX robots.
+    # > 1), coherency beyond ALL_PAIRS_MAX robots and a batch's sensed field replaced.
     in_company(np.arange(3), np.zeros((3, 3)), 2, 0.1)
+    # A batch's sensed field replaced after cleaning (float32, as World.sensed_field's).
+    set_field(field_list([np.zeros((2, 2), np.float32)]), 0, np.zeros((2, 2), np.float32))
     coherency(np.zeros((ALL_PAIRS_MAX + 1, 2)))
     kernels = list(cached_kernels())
     return Warmed(kernels=len(kernels), signatures=sum(len(k.signatures) for _, k in kernels),
