@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 import rclpy
 import yaml
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.experimental.events_executor import EventsExecutor
 
 from mona_controller.plugins import KEY as PLUGINS
 from mona_controller.schema import ParameterError
@@ -278,7 +278,7 @@ def _play(name: str, chosen: Implementation, path: Path, params: dict, folder: P
              str(step_ns), '--record', str(record), '--parent', str(os.getpid())], 'scripted')
         context = init_context(domain)
         probe = Probe(params, context=context)
-        executor = SingleThreadedExecutor(context=context)
+        executor = EventsExecutor(context=context)  # as the nodes: it keeps up under load
         executor.add_node(probe)
         scenario = Scenario(probe, executor, lambda: world.poll() is None)
         try:

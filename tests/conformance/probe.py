@@ -35,7 +35,7 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import OccupancyGrid
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
@@ -247,7 +247,7 @@ def announcement(episode: int, start_ns: int, poses: list, duration: float,
 class Scenario:
     """Plays the module docstring's episodes against a running implementation."""
 
-    def __init__(self, probe: Probe, executor: SingleThreadedExecutor,
+    def __init__(self, probe: Probe, executor: Executor,
                  world_alive: Callable[[], bool]) -> None:
         self.probe = probe
         self.executor = executor
@@ -343,7 +343,7 @@ class Scenario:
         self.marks['shutdown'] = probe.announce({'episode': 3, 'shutdown': True})
 
 
-def spin_briefly(executor: SingleThreadedExecutor, seconds: float) -> None:
+def spin_briefly(executor: Executor, seconds: float) -> None:
     """Spin ``executor`` for ``seconds`` of wall time."""
     deadline = time.monotonic() + seconds
     while time.monotonic() < deadline:
