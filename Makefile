@@ -42,7 +42,7 @@ run: venv
 
 # pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
 # or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
-# (2026-12-05): 15.2 min wall idle (pytest 816 s), 19.6 min under ../shared/tools/under-load.
+# (2026-12-05): 15.2 min wall idle (pytest 813 s), 21.3 min under ../shared/tools/under-load.
 # 6 workers were slower idle (16.5 min, pytest 898 s, the same commit).
 TEST_JOBS ?= 4
 test: test-setup
