@@ -15,6 +15,7 @@ ROLES = {'all': ('world', 'metrics', 'controller', 'supervisor'),
          'supervision': ('metrics', 'supervisor'),
          'controllers': ('controller',)}
 
+
 def controller_groups(population: int, per_process: int,
                       robots: list[int] | None = None) -> list[str]:
     """The ``--robots`` of each controller process: '0', '1', ... or '0-9', '10-19', ...,

@@ -154,8 +154,10 @@ class WorldNode(EpisodeHost):
             self.destroy_timer(self.pace_timer)
             self.pace_timer = None
         factor = self.options.real_time_factor
+        if factor <= 0:  # unpaced: no clock read on the hot path
+            return False
         now = self.wall.now().nanoseconds
-        if factor <= 0 or self.world.steps == 0 or self.pace_origin is None:
+        if self.world.steps == 0 or self.pace_origin is None:
             self.pace_origin = (now, self.time_ns)
             return False
         due = self.pace_origin[0] + (self.time_ns - self.pace_origin[1]) / factor
