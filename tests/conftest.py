@@ -170,6 +170,18 @@ def pytest_sessionstart(session: pytest.Session) -> None:
         config.stash[WARMED] = f'not warmed ({type(error).__name__}: {error})'
 
 
+@pytest.hookimpl(wrapper=True, trylast=True)
+def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """End the session fixtures of :data:`suite.ENDED_EARLY` that ``item`` was the last test
+    of its unit to use (their teardown's checks then fail this test's teardown, as they would
+    the last test's)."""
+    result = yield
+    for name in suite.ended_after(item):
+        for fixturedef in item._fixtureinfo.name2fixturedefs.get(name, ()):  # type: ignore[attr-defined]
+            fixturedef.finish(item._request)  # type: ignore[attr-defined]
+    return result
+
+
 def pytest_report_header(config: pytest.Config) -> str | None:
     """What the controller's warm step did (pytest_sessionstart)."""
     return f'numba cache: {config.stash[WARMED]}' if WARMED in config.stash else None

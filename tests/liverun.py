@@ -15,8 +15,9 @@ work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in file or
 
 A client subscribes as soon as the live view listens and keeps what it sees until the episode
 is 10 s of sim time old (:attr:`SharedRun.watched`). After its episode each run lingers, its
-live view serving the final state, until the session ends; then Ctrl-C, which must end it
-with status 0, nothing rewritten (else an error in the teardown of the worker's last test).
+live view serving the final state, until the last test of its unit is over (tests/suite.py's
+``ENDED_EARLY``); then Ctrl-C, which must end it with status 0, nothing rewritten (else an
+error in that test's teardown).
 """
 
 from __future__ import annotations

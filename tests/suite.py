@@ -96,6 +96,27 @@ def order(items: list[pytest.Item]) -> None:
     items.sort(key=lambda item: module_rank[module_of(item.nodeid)])
 
 
+#: Session fixtures ended once the last test of a unit that uses them is over, not when the
+#: session ends: the lingering live runs (their processes would serve a view nobody looks at
+#: for the rest of the session) and the browser (tests/conftest.py's teardown hook).
+ENDED_EARLY = ('embedded_live', 'node_live', 'browser')
+
+
+def ended_after(item: pytest.Item) -> list[str]:
+    """The :data:`ENDED_EARLY` fixtures ``item`` uses and no later test of its unit does (a
+    unit runs on one worker, in the session's order)."""
+    used = [name for name in ENDED_EARLY if name in getattr(item, 'fixturenames', ())]
+    if not used:
+        return []
+    items = item.session.items
+    root = item.config.rootpath
+    unit = unit_of(root, item.nodeid)
+    later = items[items.index(item) + 1:]
+    wanted = set().union(*(getattr(other, 'fixturenames', ()) for other in later
+                           if unit_of(root, other.nodeid) == unit))
+    return [name for name in used if name not in wanted]
+
+
 def not_run(config: pytest.Config) -> tuple[list, list]:
     """(skipped reports, deselected items) of the session so far."""
     reporter = config.pluginmanager.get_plugin('terminalreporter')

@@ -5,7 +5,8 @@ connects, lists the advertised channels, subscribes to all, decodes every messag
 advertised ``ros2msg`` schemas, and checks what it saw against the episode and its bag. The
 episode watched is the one the browser tier opens too (``embedded_live``, tests/liverun.py:
 N = 12, seed 2, 200 s at pace 3, with a bag, among examples/obstacle_layout.yaml's obstacles,
-lingering until the session ends, when Ctrl-C must end it with status 0, nothing rewritten).
+lingering until its last test here is over, when Ctrl-C must end it with status 0, nothing
+rewritten).
 """
 
 from __future__ import annotations
