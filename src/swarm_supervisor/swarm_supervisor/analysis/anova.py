@@ -31,8 +31,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import statsmodels.formula.api as smf
-from statsmodels.stats.anova import anova_lm
 
 from swarm_supervisor.study.table import design_factors
 
@@ -131,6 +129,11 @@ def anova(table: pd.DataFrame, response: str, levels: int = DEFAULT_LEVELS,
     if dof < 1:
         raise ValueError(f'ANOVA of {response}: {len(sample)} observations leave no residual '
                          'degrees of freedom (add seeds or time levels)')
+    # statsmodels (and the scipy it imports) cost about 2 s of CPU to import: only here, where
+    # a model is fitted, not in every process that writes a report or reads a table.
+    import statsmodels.formula.api as smf
+    from statsmodels.stats.anova import anova_lm
+
     result = anova_lm(smf.ols(formula, data=sample).fit(), typ=2)
     total = float(((sample[response] - sample[response].mean()) ** 2).sum())
     rows = []
