@@ -36,7 +36,10 @@ def test_a_shipped_controller_as_nodes_records_the_embedded_bag(tmp_path, name):
         world=COMPANY, episode={'population': 8, 'duration': 8.0, 'seed': 4})
     path = tmp_path / 'learned.yaml'
     write_ros_yaml(config, path)
-    run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--mode', 'lockstep'])
+    # Four controllers per process: the layout is not what this compares (the default one
+    # process per robot is compared in test_embedded_bag), and each process costs a start-up.
+    run = SwarmRun(tmp_path / 'run', ['--config', str(path), '--mode', 'lockstep',
+                                      '--controllers-per-process', '4'])
     try:
         status = run.wait()
     finally:
