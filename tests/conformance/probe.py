@@ -68,9 +68,11 @@ ROBOT3_SLOW_DELAY = 0.1
 ROBOT3_DRIVES = range(40, 50)  #: robot 3 drives forward at ROBOT3_SPEED for these steps
 ROBOT3_SPEED = 0.05
 ROBOT4_SILENT = range(5, 60)
-#: The probe's history for the readings and markers: deeper than the page's keep last 5
-#: (a subscriber's depth is its own), so a probe slowed down by a loaded machine loses none
-#: of a realtime world's readings.
+#: The probe's history for the readings, the markers, the status and the maps: deeper than
+#: the page's keep last 5 or 1 (a subscriber's depth is its own, and a latched writer's depth
+#: still bounds what a late subscriber gets), so a probe slowed down by a loaded machine loses
+#: none of them (with depth 1 a status or map overwritten before the probe took it failed
+#: the once-per-period rules under load, 2026-12-05).
 LISTENER_DEPTH = 200
 ROBOT4_CLEANER_STEP = 4
 
@@ -128,15 +130,15 @@ class Probe(Node):
         self.create_subscription(PoseArray, '/world/poses', self._on_poses, qos(1000))
         self.create_subscription(PoseArray, '/world/cleaning', self._on_cleaning, qos(1000))
         self.create_subscription(String, '/world/status', self._on_status,
-                                 qos(1, latched=True))
+                                 qos(LISTENER_DEPTH, latched=True))
         self.create_subscription(Clock, '/clock', self._on_clock, qos(100, reliable=False))
         self.create_subscription(
             UInt8MultiArray, '/world/robot_states',
             lambda msg: self.robot_states.append((self.clock(), np.frombuffer(
                 bytes(msg.data), np.uint8).copy())), qos(1000))
         for name, kind, profile in (
-                ('cue_map', Image, qos(1, latched=True)),
-                ('cue_grid', OccupancyGrid, qos(1, latched=True)),
+                ('cue_map', Image, qos(LISTENER_DEPTH, latched=True)),
+                ('cue_grid', OccupancyGrid, qos(LISTENER_DEPTH, latched=True)),
                 ('markers', MarkerArray, qos(LISTENER_DEPTH)),
                 ('obstacles', MarkerArray, qos(1, latched=True)),
                 ('sources', MarkerArray, qos(1, latched=True))):
