@@ -14,9 +14,14 @@ HERE = Path(__file__).resolve().parent
 #: readings writers keep the last 5 (the page's QoS); a probe held off the CPU long enough on
 #: a loaded machine misses a few steps' readings that the world did publish (seen twice in
 #: about ten runs under ../shared/tools/under-load: 4 consecutive steps of one robot, in a
-#: run whose every other rule passed). Only when these alone fail is a run tried again.
+#: run whose every other rule passed). The rules that want a status and a cue map in every
+#: period are held to samples the world keeps only the last of (transient local, depth 1):
+#: the same stall loses them (ci27: readings of 2.05-2.37 s and the cue map of 2.05 s, in one
+#: stall). Only when these alone fail is a run tried again.
 READINGS_RULES = frozenset({'test_lockstep_readings_are_stamped_start_ns_plus_k_step_ns',
-                            'test_ground_and_proximity_have_the_same_stamp'})
+                            'test_ground_and_proximity_have_the_same_stamp',
+                            'test_cue_map_and_markers_every_map_period',
+                            'test_status_each_status_period_while_running'})
 
 
 def run_rules(*args: str, timeout: float) -> subprocess.CompletedProcess:
