@@ -176,6 +176,8 @@ def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> 
     of its unit to use (their teardown's checks then fail this test's teardown, as they would
     the last test's)."""
     result = yield
+    # pytest has no public call to end one fixture early: FixtureDef.finish is what the
+    # session's own teardown calls (pytest 9.2, pinned), and a later request makes it anew.
     for name in suite.ended_after(item):
         for fixturedef in item._fixtureinfo.name2fixturedefs.get(name, ()):  # type: ignore[attr-defined]
             fixturedef.finish(item._request)  # type: ignore[attr-defined]

@@ -71,8 +71,9 @@ ROBOT4_SILENT = range(5, 60)
 #: The probe's history for the readings, the markers, the status and the maps: deeper than
 #: the page's keep last 5 or 1 (a subscriber's depth is its own, and a latched writer's depth
 #: still bounds what a late subscriber gets), so a probe slowed down by a loaded machine loses
-#: none of them (with depth 1 a status or map overwritten before the probe took it failed
-#: the once-per-period rules under load, 2026-12-05).
+#: none that reached it (with depth 1 a status or map overwritten before the probe took it
+#: failed the once-per-period rules under load, 2026-12-05). What a probe stalled off the CPU
+#: never received, the world's own keep-last history dropped: inner_suite.READINGS_RULES.
 LISTENER_DEPTH = 200
 ROBOT4_CLEANER_STEP = 4
 

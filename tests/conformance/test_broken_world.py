@@ -31,7 +31,7 @@ def test_a_world_with_the_beams_reversed_fails_the_beam_order_rule(tmp_path):
     result, failed, outcomes = run_against(command, report)
     first = ''
     if failed - BEAM_RULES and failed - BEAM_RULES <= READINGS_RULES:
-        # The relay's probe lost readings on a loaded machine (inner_suite.READINGS_RULES;
+        # The probe lost samples on a loaded machine (inner_suite.READINGS_RULES;
         # the relay, a Python hop keeping the last 5, can fall behind too): once more.
         first = f'first run failed {sorted(failed)}:\n{result.stdout[-3000:]}\nsecond run:\n'
         print(first)
