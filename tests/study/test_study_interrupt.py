@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import json
 import os
+import queue
 import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -24,6 +26,9 @@ from swarm_supervisor.config import load_config, write_ros_yaml
 DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3], 'duration': 8.0,
           'snapshot_times': [0.0, 8.0]}
 EPISODES = 12
+#: test_sigterm_...'s: the same cells, of 60 s each, so that episodes still run when the
+#: signal comes however late a busy machine lets the test see the first one written.
+SIGTERM_DESIGN = {**DESIGN, 'duration': 60.0, 'snapshot_times': [0.0, 60.0]}
 #: test_ctrl_c_...'s: 16 episodes on two workers (here, not in test_study.py, whose
 #: module-scoped study would keep this slow test on that module's worker).
 CTRL_C_DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3, 4],
@@ -45,38 +50,75 @@ def written(out: Path) -> list[Path]:
         if folder.is_dir() else []
 
 
-@pytest.fixture
-def config(tmp_path: Path) -> Path:
-    path = tmp_path / 'design.yaml'
-    write_ros_yaml(load_config().replace(study=DESIGN), path)
+def write_design(design: dict, path: Path) -> Path:
+    write_ros_yaml(load_config().replace(study=design), path)
     return path
 
 
-def stop_once_written(process: subprocess.Popen, out: Path, count: int,
-                      signum: int = signal.SIGINT) -> None:
-    """``signum`` to the process group (SIGINT: a terminal's Ctrl-C) once ``count`` episodes
-    are in place."""
-    deadline = time.monotonic() + 180
-    while len([p for p in written(out) if outputs.episode_complete(p)]) < count:
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline, 'no episode finished'
-        time.sleep(0.05)
-    os.killpg(process.pid, signum)
+@pytest.fixture
+def config(tmp_path: Path) -> Path:
+    return write_design(DESIGN, tmp_path / 'design.yaml')
+
+
+class StudyProcess:
+    """``mona-swarm study`` in its own process group, its stderr read line by line as it
+    comes (its own word on an episode written: looking at the folder instead needs imports
+    that take seconds on a busy machine, by when the study may be over)."""
+
+    def __init__(self, config: Path, out: Path) -> None:
+        self.process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self.said: list[str] = []
+        self._lines: queue.Queue[str] = queue.Queue()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for line in self.process.stderr:
+            self._lines.put(line)
+        self._lines.put('')  # the end of its stderr
+
+    def read_until(self, text: str) -> None:
+        """Read its stderr up to a line holding ``text``; fail if it ends first."""
+        while not self.said or self.said[-1] and text not in self.said[-1]:
+            self.said.append(self._lines.get(timeout=180))
+        assert self.said[-1], f'the study ended before saying {text!r}: {self.stderr()}'
+
+    def signal(self, signum: int) -> None:
+        """``signum`` to its process group (SIGINT: a terminal's Ctrl-C)."""
+        os.killpg(self.process.pid, signum)
+
+    def wait(self, timeout: float) -> int:
+        """Its exit status, once it and its stderr ended."""
+        self.process.wait(timeout=timeout)
+        self._reader.join(timeout=10)
+        return self.process.returncode
+
+    def stderr(self) -> str:
+        """What it said so far."""
+        while not self._lines.empty():
+            self.said.append(self._lines.get())
+        return ''.join(self.said)
+
+    def kill(self) -> None:
+        """SIGKILL to its group unless it ended."""
+        if self.process.poll() is None:
+            self.signal(signal.SIGKILL)
+            self.process.wait()
 
 
 @pytest.mark.slow
 def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(config, tmp_path):
     out = tmp_path / 'stopped'
-    process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    stopped = StudyProcess(config, out)
     try:
-        stop_once_written(process, out, 2)
-        _, err = process.communicate(timeout=120)
+        stopped.read_until(f'episode 2/{EPISODES} done')
+        stopped.signal(signal.SIGINT)
+        status = stopped.wait(120)
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    assert process.returncode == 130, err
+        stopped.kill()
+    err = stopped.stderr()
+    assert status == 130, err
     said = re.search(MESSAGE, err)
     assert said, err
     assert 'Traceback' not in err
@@ -111,20 +153,21 @@ def test_interrupted_study_keeps_every_episode_and_resumes_to_the_same_bytes(con
             (folder / outputs.METRICS_FILE).read_bytes(), folder.name
 
 
-def test_sigterm_and_a_second_ctrl_c_stop_at_once_and_leave_no_torn_folder(config, tmp_path):
+def test_sigterm_and_a_second_ctrl_c_stop_at_once_and_leave_no_torn_folder(tmp_path):
     out = tmp_path / 'out'
-    process = subprocess.Popen(command(config, out), start_new_session=True, text=True,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    stopped = StudyProcess(write_design(SIGTERM_DESIGN, tmp_path / 'design.yaml'), out)
     try:
-        stop_once_written(process, out, 1, signal.SIGTERM)
-        time.sleep(0.3)  # pending together, Python would handle SIGINT (2) first
-        os.killpg(process.pid, signal.SIGINT)  # while it stops: changes nothing
-        _, err = process.communicate(timeout=60)
+        stopped.read_until(f'episode 1/{EPISODES} done')
+        stopped.signal(signal.SIGTERM)
+        # Once it says it stops (both pending at once, Python would take SIGINT first).
+        stopped.read_until('SIGTERM received')
+        stopped.signal(signal.SIGINT)  # while it stops: changes nothing
+        status = stopped.wait(60)
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    assert process.returncode == 143, err
+        stopped.kill()
+    err = stopped.stderr()
+    assert status == 143, err
+    assert 'SIGTERM received: stopping the workers' in err
     assert 'interrupted by SIGTERM' in err and 'episodes kept in' in err
     assert 'Traceback' not in err
     for folder in written(out):

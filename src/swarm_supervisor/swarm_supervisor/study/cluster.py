@@ -171,6 +171,7 @@ def run_on_cluster(batches: Sequence[Sequence[EpisodeTask]],
                     ran[folder] = wall, cpu
                     show_done(bar, progress, len(ran), len(pending), folder, wall)
     except Interrupted as stopped:
+        stopped.announce()
         stopped.ran = dict(ran)
         raise
     finally:

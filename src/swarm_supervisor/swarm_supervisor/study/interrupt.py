@@ -15,6 +15,7 @@ and exits 130 (SIGINT) or 143 (SIGTERM); the same command resumes.
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from types import FrameType
 from typing import Any
@@ -44,6 +45,11 @@ class Interrupted(KeyboardInterrupt):
         return (f'interrupted by {self.name}: {self.kept} of {self.total} episodes kept in '
                 f'{self.folder} (the running batches were cut); rerun the same command to '
                 'resume')
+
+    def announce(self) -> None:
+        """Say on stderr, as the stop begins, that it does (the workers take a moment to end)."""
+        print(f'{self.name} received: stopping the workers; finished episodes are kept',
+              file=sys.stderr, flush=True)
 
     @property
     def status(self) -> int:

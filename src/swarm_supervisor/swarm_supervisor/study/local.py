@@ -89,6 +89,7 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
                 seconds.update(min(counter.value, total) - seconds.n)
         pool.close()
     except Interrupted as stopped:  # Ctrl-C or SIGTERM (run_study's handlers): stop now
+        stopped.announce()
         pool.terminate()
         stopped.ran = dict(ran)
         raise
