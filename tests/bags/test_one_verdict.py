@@ -97,6 +97,10 @@ def test_a_missing_run_record_or_an_episode_without_a_bag_fails_the_run(tmp_path
     assert 'does not list the episodes' in incomplete_records(tmp_path)[0]
     (tmp_path / RUN_FILE).write_text(json.dumps({'episodes': [{'episode': 0, 'records': {}}]}))
     assert incomplete_records(tmp_path) == [f'episode 0 has no record in {tmp_path / RUN_FILE}']
+    # The live view's word is no record on disk: alone, the episode still has none.
+    (tmp_path / RUN_FILE).write_text(json.dumps({'episodes': [{'episode': 0, 'records': {
+        'live': {'path': 'ws://127.0.0.1:8765', 'complete': True, 'problems': []}}}]}))
+    assert incomplete_records(tmp_path) == [f'episode 0 has no record in {tmp_path / RUN_FILE}']
     (tmp_path / RUN_FILE).write_text(json.dumps({'episodes': [
         {'episode': 0, 'records': {'metrics': {'path': str(tmp_path / 'gone')}}}]}))
     [problem] = incomplete_records(tmp_path)

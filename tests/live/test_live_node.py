@@ -44,10 +44,13 @@ def test_a_run_with_a_live_view_and_no_linger_ends_by_itself(tmp_path):
     assert 'keeps serving' not in run.stderr
 
 
-def test_no_episode_starts_before_the_live_view_follows_the_world(tmp_path):
+def test_no_episode_starts_or_ends_without_the_live_view(tmp_path):
     """A live node slow to start (stopped here, as a busy machine may keep it) holds the first
     episode back: the world's per-step topics are kept for no late subscriber, so a live view
-    that joined after the episode would have no final state to serve (it had none at all)."""
+    that joined after the episode would have no final state to serve (it had none at all).
+    Stopped again from the announcement until after the world finished, it holds the run back
+    too: the supervisor waits for its word that it holds the final state (before, the run
+    shut down without it, and the live view served nothing while the script said it did)."""
     port = free_port()
     run = SwarmRun(tmp_path / 'run', ['--population', '2', '--duration', '4', '--seed', '3',
                                       '--live', '--live-port', str(port), '--linger', '60'])
@@ -59,6 +62,14 @@ def test_no_episode_starts_before_the_live_view_follows_the_world(tmp_path):
             run.wait_for(lambda: 'controller_1' in run.nodes(), 'the controllers', timeout=60)
             time.sleep(8.0)
             assert 'supervisor' not in run.nodes(), run.stderr  # no announcement: no episode
+        finally:
+            os.killpg(live, signal.SIGCONT)
+        run.wait_for(lambda: 'supervisor' in run.nodes(), 'the supervisor', timeout=60)
+        os.killpg(live, signal.SIGSTOP)  # before its announcement, until after the end
+        try:
+            run.wait_for(lambda: 'episode 0 finished' in run.log('world'), 'the episode')
+            time.sleep(3.0)
+            assert 'episode 0 finished' not in run.log('supervisor'), run.log('supervisor')
         finally:
             os.killpg(live, signal.SIGCONT)
         run.wait_for(lambda: 'keeps serving its final state' in run.stderr, 'the linger')

@@ -121,6 +121,10 @@ def test_each_node_gets_the_parameters_and_its_own_options():
     assert commands['controller_0-1'] == ['/bin/controller', '--robots', '0-1', *common]
     assert commands['supervisor'] == ['/bin/supervisor', *common, '-p', 'episodes:=2',
                                       '-p', f'output_dir:={out}', '-p', 'recorders:=metrics']
+    # With a live view the supervisor (only) waits for its word too: it holds the final state.
+    live = node_commands(options('--live'), 3, out, executables)
+    assert live['supervisor'][-2:] == ['-p', 'recorders:=metrics,live']
+    assert live['world'][-2:] == ['-p', 'recorders:=metrics']
     # The world's patience grows with the swarm, unless given.
     many = node_commands(options('--population', '40'), 40, out, executables)
     assert 'start_timeout:=120.0' in many['world']

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from swarm_supervisor.system.preflight import config_file, run_overrides
+from swarm_supervisor.system.processes import LIVE_RECORDER
 
 #: What each ``--role`` starts: the whole system on one host, or the part for one host
 #: ('supervision': the core without the world, for a driver of real Monas that replaces it).
@@ -54,9 +55,11 @@ def node_commands(options: argparse.Namespace, population: int, out: Path,
         commands['live'] = [sys.executable, '-m', 'swarm_supervisor.system.ros.live_node',
                             '--ros-args', '-p', f'port:={options.live_port}',
                             '-p', f'linger:={-1.0 if linger is None else float(linger)}']
+    # The live node reports like a recorder: an episode ends once it holds the final state.
+    recorders = f'metrics,{LIVE_RECORDER}' if 'live' in commands else 'metrics'
     commands['supervisor'] = [executables['supervisor'], *ros_args,
                               '-p', f'episodes:={options.episodes}', '-p', f'output_dir:={out}',
-                              '-p', 'recorders:=metrics']
+                              '-p', f'recorders:={recorders}']
     kinds = ROLES[getattr(options, 'role', 'all')] + ('live',)
     return {name: command for name, command in commands.items()
             if name.partition('_')[0] in kinds}

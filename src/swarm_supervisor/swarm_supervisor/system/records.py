@@ -4,13 +4,16 @@ The supervisor ends a run with status 0 only when every recorder reported its re
 every episode complete, and a recorder's report is the verdict of
 :func:`swarm_metrics.bags.completeness.check_bag` on the bag it closed. The launcher judges every
 bag that ``run.json`` lists once more with that same function when the run is over, so its
-exit status and ``mona-swarm analyze``'s answer on those bags cannot differ.
+exit status and ``mona-swarm analyze``'s answer on those bags cannot differ. The live view's
+word (recorder ``live``) names no file and is not judged here.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+
+from swarm_supervisor.system.processes import LIVE_RECORDER
 
 RUN_FILE = 'run.json'  #: the supervisor's record of the run, in its output folder
 
@@ -30,10 +33,12 @@ def incomplete_records(out: Path) -> list[str]:
     problems = []
     for episode in episodes:
         records = episode.get('records') or {}
-        if not records:
+        if not set(records) - {LIVE_RECORDER}:
             problems.append(f'episode {episode.get("episode")} has no record in '
                             f'{out / RUN_FILE}')
         for recorder, record in sorted(records.items()):
+            if recorder == LIVE_RECORDER:
+                continue
             findings = check_bag_file(Path(record['path']))
             if findings:
                 checks = ', '.join(failed_checks(findings))

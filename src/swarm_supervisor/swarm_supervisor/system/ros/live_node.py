@@ -11,7 +11,11 @@ keeps serving the run's final state (the latest message of every topic, sent aga
 second) for ``linger`` wall seconds (-1: until SIGINT/SIGTERM; 0: it stops at once). It logs
 ``live view following the world`` once the world's per-step topics reach it: the launcher
 starts the supervisor (so the first episode) only then, so the live view misses no step and
-holds the run's final state however late it started on a busy machine. Exit status: 0 after
+holds the run's final state however late it started on a busy machine. Once it holds an
+episode's final state (its announcement, the world's finished status and the poses of its last
+step) it says so on ``/recorders`` as recorder ``live``: the launcher lists it among the
+supervisor's recorders, so the run goes on (to the next episode, or the shutdown) only once
+the live view holds what it is to show, however long a busy machine kept it. Exit status: 0 after
 the shutdown announcement and its linger, or SIGINT/SIGTERM; 2 for a bad parameter or a port
 it cannot listen on.
 
@@ -30,14 +34,22 @@ import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.task import Future
+from std_msgs.msg import String
 
+from mona_controller.contract import (
+    ContractError,
+    RecorderReport,
+    RecorderState,
+    WorldState,
+    WorldStatus,
+)
 from mona_controller.node_help import node_parser, parse_node_args
 from mona_controller.ros import qos
 from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
-from swarm_supervisor.system.processes import LIVE_READY
+from swarm_supervisor.system.processes import LIVE_READY, LIVE_RECORDER
 from swarm_world.messages.cdr import stamp_ns
 
 #: The world's topics published with every step and kept for no late subscriber: the live
@@ -113,6 +125,10 @@ class LiveNode(Node):
         #: The announcement, the latest status, the obstacles (the world's latched scenery)
         #: and the sources where they were last.
         self.latched: dict[str, bytes] = {}
+        self.announced: tuple[int, int] | None = None  # (episode, start_ns) of the latest
+        self.finished: WorldStatus | None = None  # the world's, for the episode announced
+        self.reported: tuple[int, int] | None = None  # the episode whose final state we hold
+        self.report_pub = self.create_publisher(String, qos.RECORDERS, qos.RECORDERS_QOS)
         # The latched topics are kept for late joiners; a metric sample and the robots'
         # states have no stamp; every other topic forwarded is stamped.
         handlers = {qos.EPISODE: self._on_episode, qos.STATUS: self._on_latched,
@@ -160,6 +176,8 @@ class LiveNode(Node):
         self.latest[topic] = (stamp, bytes(data))
         if self._due(topic):
             self.server.publish(topic, stamp, bytes(data))
+        if topic == qos.POSES:
+            self._report_final_state()
 
     def _on_unstamped(self, topic: str, data: bytes) -> None:
         # A metric sample is published just after the pose that completes it: the latest
@@ -176,6 +194,33 @@ class LiveNode(Node):
     def _on_latched(self, topic: str, data: bytes) -> None:
         self.latched[topic] = bytes(data)
         self.server.publish(topic, self.sim_ns, bytes(data))
+        if topic == qos.STATUS:
+            self._on_status(bytes(data))
+
+    def _on_status(self, data: bytes) -> None:
+        try:
+            status = WorldStatus.from_json(data[8:].rstrip(b'\x00').decode())
+        except ContractError as error:
+            self.get_logger().warning(str(error), throttle_duration_sec=5.0)
+            return
+        if status.state is WorldState.FINISHED:
+            self.finished = status
+            self._report_final_state()
+
+    def _report_final_state(self) -> None:
+        """Say on /recorders, once, that we hold the announced episode's final state: its
+        finished status and the poses of its last step (published just before that status)."""
+        if self.announced is None or self.finished is None or self.reported == self.announced:
+            return
+        episode, start_ns = self.announced
+        poses = self.latest.get(qos.POSES)
+        if self.finished.episode != episode or poses is None \
+                or poses[0] < self.finished.time_ns:
+            return
+        self.reported = self.announced
+        self.report_pub.publish(String(data=RecorderReport(
+            LIVE_RECORDER, episode, start_ns, RecorderState.CLOSED,
+            recorded_ns=self.finished.time_ns, complete=True, path=self.server.url).to_json()))
 
     def _on_episode(self, topic: str, data: bytes) -> None:
         document = json.loads(bytes(data)[8:].rstrip(b'\x00').decode())
@@ -184,6 +229,8 @@ class LiveNode(Node):
             return
         self.latched[topic] = bytes(data)
         self.server.publish(topic, int(document.get('start_ns', self.sim_ns)), bytes(data))
+        self.announced = int(document.get('episode', -1)), int(document.get('start_ns', 0))
+        self._report_final_state()
 
     def _linger(self) -> None:
         """The run is over: stop now, or keep serving its final state for ``linger``."""
