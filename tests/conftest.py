@@ -153,6 +153,10 @@ def pytest_configure(config: pytest.Config) -> None:
     tests start inherit the default."""
     if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+    # The suite's own rules and schedule (tests/suite.py: a plug-in, so that a test can run
+    # them on a suite of its own, tests/unit/test_suite_rules.py).
+    if not config.pluginmanager.is_registered(suite):
+        config.pluginmanager.register(suite, 'suite')
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which spawns the workers
@@ -170,44 +174,6 @@ def pytest_sessionstart(session: pytest.Session) -> None:
         config.stash[WARMED] = f'not warmed ({type(error).__name__}: {error})'
 
 
-@pytest.hookimpl(wrapper=True, trylast=True)
-def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
-    """End the session fixtures of :data:`suite.ENDED_EARLY` that ``item`` was the last test
-    of its unit to use (their teardown's checks then fail this test's teardown, as they would
-    the last test's)."""
-    result = yield
-    # pytest has no public call to end one fixture early: FixtureDef.finish is what the
-    # session's own teardown calls (pytest 9.2, pinned), and a later request makes it anew.
-    for name in suite.ended_after(item):
-        for fixturedef in item._fixtureinfo.name2fixturedefs.get(name, ()):  # type: ignore[attr-defined]
-            fixturedef.finish(item._request)  # type: ignore[attr-defined]
-    return result
-
-
 def pytest_report_header(config: pytest.Config) -> str | None:
     """What the controller's warm step did (pytest_sessionstart)."""
     return f'numba cache: {config.stash[WARMED]}' if WARMED in config.stash else None
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The units that take longest first (suite.order)."""
-    suite.order(items)
-
-
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own choice
-def pytest_xdist_make_scheduler(config: pytest.Config, log):
-    """Our units of work (suite.SuiteScheduling), unless ``--dist each`` asks otherwise."""
-    return None if config.getvalue('dist') == 'each' else suite.SuiteScheduling(config, log)
-
-
-def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
-    """Under CI a test that did not run fails the run (the summary lists them)."""
-    if hasattr(session.config, 'workerinput') or not suite.in_ci():
-        return
-    if any(suite.not_run(session.config)) and session.exitstatus == pytest.ExitCode.OK:
-        session.exitstatus = pytest.ExitCode.TESTS_FAILED
-
-
-def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
-    """The banner of what did not run (suite.write_banner)."""
-    suite.write_banner(terminalreporter, config)

@@ -1,6 +1,7 @@
-"""The suite's own machinery (tests/conftest.py's hooks call it; tests/README.md has the rules):
-how pytest-xdist cuts the suite into units of work and in which order it hands them out, and
-what a run did not run.
+"""The suite's own machinery, a pytest plug-in (tests/conftest.py registers it; tests/README.md
+has the rules): how pytest-xdist cuts the suite into units of work and in which order it hands
+them out, which shared fixtures end early, and what a run did not run (under CI it fails).
+tests/unit/test_suite_rules.py runs it on small suites of its own.
 
 Units: the tests of one module run on one worker when the module, or a conftest.py beside it,
 defines a module-, class- or package-scoped fixture (made once, not once per worker), and the
@@ -21,6 +22,7 @@ from __future__ import annotations
 import functools
 import os
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -154,3 +156,43 @@ def write_banner(terminalreporter, config: pytest.Config) -> None:
     terminalreporter.write_line(
         'CI=true: this run FAILS for them (a test that did not run is not a pass).' if in_ci()
         else 'Not a CI run, so they are only listed here; under CI=true they fail the run.')
+
+
+# --- the hooks (tests/conftest.py registers this module as a plug-in) ---------------------
+
+@pytest.hookimpl(wrapper=True, trylast=True)
+def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """End the session fixtures of :data:`ENDED_EARLY` that ``item`` was the last test
+    of its unit to use (their teardown's checks then fail this test's teardown, as they would
+    the last test's)."""
+    result = yield
+    # pytest has no public call to end one fixture early: FixtureDef.finish is what the
+    # session's own teardown calls (pytest 9.2, pinned), and a later request makes it anew.
+    for name in ended_after(item):
+        for fixturedef in item._fixtureinfo.name2fixturedefs.get(name, ()):  # type: ignore[attr-defined]
+            fixturedef.finish(item._request)  # type: ignore[attr-defined]
+    return result
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The units that take longest first (order)."""
+    order(items)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own choice
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """Our units of work (SuiteScheduling), unless ``--dist each`` asks otherwise."""
+    return None if config.getvalue('dist') == 'each' else SuiteScheduling(config, log)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Under CI a test that did not run fails the run (the summary lists them)."""
+    if hasattr(session.config, 'workerinput') or not in_ci():
+        return
+    if any(not_run(session.config)) and session.exitstatus == pytest.ExitCode.OK:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    """The banner of what did not run (write_banner)."""
+    write_banner(terminalreporter, config)
