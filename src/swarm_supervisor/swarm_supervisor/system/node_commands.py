@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from swarm_supervisor.system.preflight import config_file, run_overrides
-from swarm_supervisor.system.processes import LIVE_RECORDER
+from swarm_supervisor.system.records import LIVE_RECORDER
 
 #: What each ``--role`` starts: the whole system on one host, or the part for one host
 #: ('supervision': the core without the world, for a driver of real Monas that replaces it).

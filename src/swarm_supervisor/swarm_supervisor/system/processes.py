@@ -37,9 +37,6 @@ LOCK_DIR = Path('/tmp')
 #: them are matched): the launcher starts the supervisor, whose announcement starts an
 #: episode, only then, so the live view gets the whole episode however late it started.
 LIVE_READY = 'live view following the world'
-#: The live node's name on /recorders: it says there when it holds an episode's final state
-#: (a word, not a file: the launcher has no bag of it to judge).
-LIVE_RECORDER = 'live'
 #: The polite stop: each signal to every group still running at once, then that many seconds'
 #: wait. A node stuck in native code never runs Python's handlers; SIGABRT then makes the fault
 #: handler (PYTHONFAULTHANDLER=1) write every thread's stack to its log before SIGKILL. 10.5 s

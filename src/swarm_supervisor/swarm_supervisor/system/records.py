@@ -13,9 +13,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from swarm_supervisor.system.processes import LIVE_RECORDER
-
 RUN_FILE = 'run.json'  #: the supervisor's record of the run, in its output folder
+#: The live node's name on /recorders: it says there when it holds an episode's final state
+#: (a word, not a file: there is no bag of it to judge).
+LIVE_RECORDER = 'live'
 
 
 def incomplete_records(out: Path) -> list[str]:

@@ -49,7 +49,8 @@ from mona_controller.ros.ros_params import declare_plugins, declare_section
 from mona_controller.ros.shutdown import STOPPED, raise_unless_stopped, teardown
 from mona_controller.schema import ParameterError, param, validate
 from swarm_supervisor.media.live import DEFAULT_PORT, MAP_RATE, RATE, LiveServer, live_topics
-from swarm_supervisor.system.processes import LIVE_READY, LIVE_RECORDER
+from swarm_supervisor.system.processes import LIVE_READY
+from swarm_supervisor.system.records import LIVE_RECORDER
 from swarm_world.messages.cdr import stamp_ns
 
 #: The world's topics published with every step and kept for no late subscriber: the live
