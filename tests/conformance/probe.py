@@ -123,7 +123,7 @@ class Probe(Node):
         self.latched: dict[str, list] = {'cue_map': [], 'cue_grid': [], 'markers': [],
                                          'obstacles': [], 'sources': []}
         self.robot_states: list[tuple[float, np.ndarray]] = []  #: (received, states)
-        #: (robot, step) -> wall s of a scripted robot's answer (scripted.py's record)
+        #: (robot, step) -> wall s a scripted robot began to send its answer (scripted.py's)
         self.sent: dict[tuple[int, int], float] = {}
         #: robot -> wall s its subscriptions were made (a scripted robot's: scripted.py's)
         self.listening: dict[int, float] = {}

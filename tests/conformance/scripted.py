@@ -149,6 +149,11 @@ class ScriptedRobots(Node):
                 commands = [(stamp + 5 * self.step_ns, 0.0), (stamp, 0.0), (stamp, 0.05)]
 
         def send() -> None:
+            # When the answer began to go out: a reading the world sends only once it has the
+            # answer arrives after this. A clock read after the publishing can be later than
+            # such a reading's arrival at the probe, if this process is preempted in between
+            # (ci33, on a busy machine: by 6 ms).
+            began = self.clock()
             for command_stamp, linear in commands:
                 if robot == 3:  # robot 4 never says its state: the world keeps 0 for it
                     self.state_pubs[robot].publish(UInt8(data=2 if cleaner else 0))
@@ -159,7 +164,7 @@ class ScriptedRobots(Node):
                 twist.header.frame_id = f'mona_{robot}/base_link'
                 twist.twist.linear.x = linear
                 self.cmd_pubs[robot].publish(twist)
-            self.note(sent=[robot, step], at=self.clock())
+            self.note(sent=[robot, step], at=began)
 
         if delay:
             self.later(delay, send)
