@@ -29,6 +29,7 @@ from swarm_supervisor.calibration.design import CalibrationDesign, CalibrationEr
 from swarm_supervisor.calibration.objective import Score, score
 from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study import plan, run_tasks, tidy_table, write_table
+from swarm_supervisor.study.interrupt import raise_if_stopped
 from swarm_supervisor.study.table import TABLE_FILE
 
 STORAGE = 'calibration.db'
@@ -140,10 +141,12 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
         else:
             say(f'resuming trials {", ".join(str(n) for n, _ in batch)} (asked before the '
                 'search was interrupted)')
+        raise_if_stopped()
         results = evaluate(design, out, batch, claims, jobs=jobs, scheduler=scheduler,
                            scheduler_timeout=scheduler_timeout, start_method=start_method,
                            keep_episodes=keep_episodes)
         for result in sorted(results, key=lambda r: r.number):
+            raise_if_stopped()
             study.tell(result.number, result.score.loss)
             best = min(load_results(out, design.trials),
                        key=lambda r: (r.score.loss, r.number))
@@ -152,6 +155,7 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
                 f'({len(result.score.held)}/{len(result.score.held) + len(result.score.failed)} '
                 f'claims, ratio {result.score.ratio:.3g}) {_values_text(result.values)}; '
                 f'best so far: trial {best.number} ({best.score.loss:.3f})')
+    raise_if_stopped()
     return load_results(out, design.trials)
 
 

@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.engine.inputs import check_inputs
     from swarm_supervisor.outputs.guard import check_place
     from swarm_supervisor.study.cluster import check_address, connect
+    from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
 
     started = time.perf_counter()
     design = load_design(args.design)
@@ -74,15 +75,18 @@ def run(args: argparse.Namespace) -> int:
     options = {'jobs': args.jobs, 'scheduler': args.scheduler,
                'scheduler_timeout': args.scheduler_timeout}
     try:
-        results = run_search(design, args.out, claims, keep_episodes=args.keep_episodes,
-                             **options)
-        confirmed = confirm(design, args.out, candidates(results, design.candidates), claims,
-                            **options)
-    except KeyboardInterrupt:
+        # Ctrl-C or SIGTERM stops the search wherever it is (between trials too).
+        with StopRequest():
+            results = run_search(design, args.out, claims, keep_episodes=args.keep_episodes,
+                                 **options)
+            confirmed = confirm(design, args.out, candidates(results, design.candidates),
+                                claims, **options)
+            raise_if_stopped()
+    except KeyboardInterrupt as error:
         told = len(load_results(args.out, design.trials))
         print(f'mona-swarm calibrate: interrupted: {told} of {design.trials} trials scored and '
               'kept; rerun the same command to resume', file=sys.stderr)
-        return exits.INTERRUPTED
+        return error.status if isinstance(error, Interrupted) else exits.INTERRUPTED
     report = write_report(design, args.out, results, confirmed, started)
     best = min(confirmed or results, key=lambda r: (r.score.loss, r.number))
     print(f'{report}: {len(results)} trials, {len(confirmed)} confirmed; best: trial '

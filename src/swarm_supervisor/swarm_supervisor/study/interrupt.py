@@ -66,7 +66,8 @@ class StopRequest:
     """Signal handlers for the time episodes run: SIGINT and SIGTERM raise
     :class:`Interrupted` in the main thread (a context manager; it restores the previous
     handlers on exit). A later signal while the study stops (terminating the workers,
-    recording what it kept) changes nothing."""
+    recording what it kept) changes nothing. Nested, an inner request that received a signal
+    hands it to the outer one as it exits (see :func:`raise_if_stopped`)."""
 
     def __init__(self) -> None:
         #: The first signal received, or None.
@@ -77,14 +78,36 @@ class StopRequest:
         if threading.current_thread() is threading.main_thread():  # handlers live there only
             for signum in STATUS:
                 self._previous[signum] = signal.signal(signum, self._handle)
+            _ACTIVE.append(self)
         return self
 
     def __exit__(self, *exc: object) -> None:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)
+        if self in _ACTIVE:
+            _ACTIVE.remove(self)
+            if self.requested is not None and _ACTIVE and _ACTIVE[-1].requested is None:
+                _ACTIVE[-1].requested = self.requested
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.requested is not None:
             return  # already stopping: let the cleanup finish
         self.requested = signum
         raise Interrupted(signum)
+
+
+#: The stop requests in force, innermost last.
+_ACTIVE: list[StopRequest] = []
+
+
+def raise_if_stopped() -> None:
+    """Raise :class:`Interrupted` if a stop request in force received a signal.
+
+    The handler's exception is lost when the signal lands while Python runs a weakref
+    callback or a ``__del__`` (it only prints "Exception ignored in ..."): a Ctrl-C amid
+    optuna's bookkeeping let a calibration search run on to its end. Loops that run long
+    call this between their steps, so such a signal still stops them there.
+    """
+    for request in _ACTIVE:
+        if request.requested is not None:
+            raise Interrupted(request.requested)
