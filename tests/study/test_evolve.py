@@ -162,7 +162,7 @@ def dask_scheduler():
 def test_an_evolution_on_a_dask_scheduler_equals_one_in_this_process(tmp_path,
                                                                      dask_scheduler):
     design = write_design(tmp_path / 'tiny.yaml', held_out=3, max_speed=0.08,
-                          clean_stops=True)
+                          clean_stops=True, duration=20.0)
     local, cluster = tmp_path / 'local', tmp_path / 'cluster'
     status, err = in_process(design, local, '--jobs', '1')
     assert status == 0, err
@@ -279,7 +279,7 @@ def test_validation_chooses_the_mean_stops_when_it_stops_improving_and_resumes(t
 
     design = load_design(write_design(
         tmp_path / 'valid.yaml', kind='stand_net', start='drives', genomes=0, diagonal=True,
-        generations=30, duration=20.0, validation=2, validate_every=1, patience=2,
+        generations=30, duration=5.0, validation=2, validate_every=1, patience=2,
         held_out=3, max_speed=0.08))
     assert design.population == 4 + int(3 * np.log(design.genome_size))  # pycma's default
     valid = validation_seeds(design)
