@@ -50,6 +50,7 @@ from swarm_supervisor.evolution.fitness import evaluate
 from swarm_supervisor.evolution.genomes import save_genome, start_genome
 from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
+from swarm_supervisor.study.interrupt import raise_if_stopped
 
 #: The columns of generations.csv.
 COLUMNS = ('generation', 'best', 'mean', 'worst', 'sigma', 'wall_s')
@@ -216,6 +217,7 @@ def _evolve(design: Design, out: Path, pool: Any | None, jobs: int, shown: bool 
     with tqdm(total=design.generations, initial=state['generation'], desc='generations',
               unit='gen', disable=disable, file=sys.stderr) as bar:
         for generation in range(state['generation'], design.generations):
+            raise_if_stopped()  # a signal whose exception was swallowed (docs/study.md)
             if validation.stopped(design, state['validations']):
                 break  # the validation score has stopped improving
             started = time.perf_counter()
