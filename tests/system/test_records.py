@@ -25,8 +25,6 @@ pytestmark = pytest.mark.ros
 
 POPULATION, DURATION = 3, 6.0
 #: Wall seconds the metrics node is kept stopped (the world could run the episode in it).
-#: Not less: the world's "catch up" line shares a 5 s log throttle with step 0's "record the
-#: start" line, so in the middle it shows only once the hold has outlasted 5 s.
 STALL = 5.0
 #: The moments: what the metrics node's or the world's log says just before the SIGSTOP.
 MOMENTS = {

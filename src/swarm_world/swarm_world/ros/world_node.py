@@ -134,10 +134,13 @@ class WorldNode(EpisodeHost):
             # The recorder samples only up to a status (it counts the cleaning events): say
             # where the world stands, or a recorder one sample behind would wait for ever.
             self.publish_status()
-            what = ('record the start' if needed == self.start_ns else 'catch up')
-            self.get_logger().info(f'step {self.world.steps}: waiting for recorder(s) '
-                                   f'{", ".join(behind)} to {what}',
-                                   throttle_duration_sec=5.0)
+            waiting = f'step {self.world.steps}: waiting for recorder(s) {", ".join(behind)}'
+            # Two call sites, two throttles: step 0's line must not hide a first catch-up.
+            if needed == self.start_ns:
+                self.get_logger().info(f'{waiting} to record the start',
+                                       throttle_duration_sec=5.0)
+            else:
+                self.get_logger().info(f'{waiting} to catch up', throttle_duration_sec=5.0)
             self.hold_timer = self.create_timer(HOLD_POLL, resume, clock=self.wall)
         elif (now - self.held_since).nanoseconds / 1e9 > self.options.recorder_timeout:
             self.fail(hold_failure(self.episode, behind, needed == self.start_ns,
