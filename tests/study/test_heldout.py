@@ -3,8 +3,10 @@ adjustment, effect sizes, the behaviour table and the figure; resumable; a bad p
 refused with exit 2 naming the key."""
 
 import json
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -78,6 +80,28 @@ def test_a_comparison_pairs_the_seeds_adjusts_p_and_resumes(tmp_path):
     assert main(command(plan_path, out, '--no-behaviour')[3:]) == 0
     assert (out / 'scores' / 'pairs.slow.csv').read_bytes() == lost
     assert (out / 'scores' / 'alone.fast.csv').stat().st_mtime_ns == kept
+
+
+def test_sigterm_keeps_the_chunks_written_and_the_same_command_resumes(tmp_path):
+    plan_path = write_plan(tmp_path)
+    out = tmp_path / 'out'
+    process = subprocess.Popen(command(plan_path, out, '--no-behaviour'),
+                               stderr=subprocess.PIPE, text=True)
+    first = out / 'scores' / 'alone.fast.csv'
+    deadline = time.monotonic() + 300
+    while not first.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert process.poll() is None, 'it ended before it could be stopped'
+    process.send_signal(signal.SIGTERM)  # three chunks still to run
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err
+    assert 'interrupted: the scores written are kept' in err and 'Traceback' not in err
+    kept = sorted(p.name for p in (out / 'scores').glob('*.csv'))
+    assert 'alone.fast.csv' in kept and len(kept) < 4 and not (out / 'summary.json').exists()
+    resumed = subprocess.run(command(plan_path, out, '--no-behaviour'), capture_output=True,
+                             text=True, timeout=900)
+    assert resumed.returncode == 0, resumed.stderr
+    assert len(list((out / 'scores').glob('*.csv'))) == 4 and (out / 'summary.json').exists()
 
 
 @pytest.mark.parametrize(('changes', 'message'), [

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+import sys
 from pathlib import Path
 
 from swarm_supervisor import exits
@@ -40,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.evolution.heldout import PlanError, load_plan, run_chunks
     from swarm_supervisor.evolution.heldout_report import report
     from swarm_supervisor.evolution.heldout_stats import behaviour_table, figure, summarise
+    from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
 
     plan = load_plan(args.plan)
     only = None if args.only is None else set(args.only.split(','))
@@ -48,8 +50,15 @@ def run(args: argparse.Namespace) -> int:
                         + ', '.join(plan.controllers))
     pool = multiprocessing.get_context('spawn').Pool(args.jobs) if args.jobs > 1 else None
     try:
-        run_chunks(plan, args.out, pool, args.jobs, only)
-        table = behaviour_table(plan, args.out, pool) if args.behaviour else {}
+        # Ctrl-C or SIGTERM stops it wherever it is (between chunks too, docs/study.md).
+        with StopRequest():
+            run_chunks(plan, args.out, pool, args.jobs, only)
+            table = behaviour_table(plan, args.out, pool) if args.behaviour else {}
+            raise_if_stopped()
+    except Interrupted as error:
+        print('mona-swarm heldout: interrupted: the scores written are kept; rerun the same '
+              'command to resume', file=sys.stderr)
+        return error.status
     finally:
         if pool is not None:
             pool.terminate()

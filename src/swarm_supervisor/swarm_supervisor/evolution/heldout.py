@@ -43,6 +43,7 @@ from mona_controller.schema import ParameterError
 from swarm_supervisor.config import SwarmConfig, load_config
 from swarm_supervisor.engine.runner import run_batch
 from swarm_supervisor.evolution.fitness import episode_fitness, run_scores
+from swarm_supervisor.study.interrupt import raise_if_stopped
 
 #: The plan's keys: (type, default); None = required.
 KEYS: dict[str, tuple[type, Any]] = {
@@ -203,6 +204,7 @@ def run_chunks(plan: Plan, out: Path, pool: Any | None, jobs: int,
             path = chunk_path(out, scenario, controller)
             if path.exists() or (only is not None and controller not in only):
                 continue
+            raise_if_stopped()  # a signal whose exception was swallowed (docs/study.md)
             configs = [episode_config(plan, scenario, controller, seed) for seed in plan.seeds]
             scores = run_scores(configs, plan.batch, pool, jobs, episode_scores)
             text = io.StringIO()
