@@ -67,6 +67,7 @@ def test_a_signal_ends_spin_until_at_once(ros_env, sig):
     process.send_signal(sig)
     sent = time.monotonic()
     out, _ = process.communicate(timeout=30)
-    # Within the executor's poll (1 s) and far from a hang; a stopped spin is no error.
-    assert time.monotonic() - sent < 5, out
+    # Far from a hang (the executor polls every 1 s; a machine crowded by a start-up storm
+    # beside the test can add seconds to the exit); a stopped spin is no error.
+    assert time.monotonic() - sent < 20, out
     assert process.returncode == 0 and 'stopped by' in out, out

@@ -78,7 +78,9 @@ def test_sigterm_during_the_checks_ends_the_launcher_at_once(swarm, tmp_path: Pa
     os.kill(run.process.pid, signal.SIGTERM)
     sent = time.monotonic()
     assert run.wait(30) == 143, run.stderr
-    assert time.monotonic() - sent < 5, run.stderr  # not after the metric's minute
+    # Not after the metric's minute. Not "within 5 s" either: with the 63 processes of the
+    # start-up test above starting beside it, leaving took 10.8 s once (ci38).
+    assert time.monotonic() - sent < 20, run.stderr
     assert 'SIGTERM received during the checks: nothing started' in run.stderr
     assert 'Traceback' not in run.stderr and not run.nodes()
 
