@@ -45,7 +45,7 @@ run: venv
 
 # pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
 # or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
-# (2026-12-05): 14.4 - 14.8 min wall idle (pytest 777 - 799 s), 18.6 - 20.6 min under
+# (2026-12-05): 13.6 - 14.8 min wall idle (pytest 739 - 799 s), 18.6 - 20.6 min under
 # ../shared/tools/under-load.
 # 6 workers were slower idle (16.5 min, pytest 898 s, the same commit); 5 no faster (pytest
 # 861 s against 855 s with 4, one venv).
