@@ -178,22 +178,23 @@ def embedded_live_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Shar
     """The embedded runner's lingering live run: N = 12, seed 2, 200 s at pace 3, with a
     bag, among the example obstacles."""
     out = tmp_path_factory.mktemp('embedded_live') / 'run'
-    yield from _embedded_run(out, 200.0, '--bag', watched=True)
+    yield from _embedded_run(out, 200.0, 3.0, '--bag', watched=True)
 
 
-def held_embedded_run(out: Path, duration: float) -> Iterator[SharedRun]:
-    """A lingering embedded live run (N = 12, seed 2, ``duration`` s at pace 3, among the
-    example obstacles) that holds its episode at t = 0 until a viewer has subscribed
-    (``--wait-for-viewer``): the test's own viewer sees it from its start, however long its
-    page takes to load."""
-    yield from _embedded_run(out, duration, '--wait-for-viewer', '600', watched=False)
+def held_embedded_run(out: Path, duration: float, pace: float) -> Iterator[SharedRun]:
+    """A lingering embedded live run (N = 12, seed 2, ``duration`` s at ``pace`` sim seconds
+    per wall second, among the example obstacles) that holds its episode at t = 0 until a
+    viewer has subscribed (``--wait-for-viewer``): the test's own viewer sees it from its
+    start, however long its page takes to load."""
+    yield from _embedded_run(out, duration, pace, '--wait-for-viewer', '600', watched=False)
 
 
-def _embedded_run(out: Path, duration: float, *extra: str, watched: bool
+def _embedded_run(out: Path, duration: float, pace: float, *extra: str, watched: bool
                   ) -> Iterator[SharedRun]:
     live = LiveRun([str(MONA_SWARM), 'run', '--population', '12', '--seed', '2',
                     '--duration', f'{duration:g}', '--out', str(out), '--config', str(OBSTACLES),
-                    '--live', '--live-port', '0', '--pace', '3', '--linger', '900', *extra])
+                    '--live', '--live-port', '0', '--pace', f'{pace:g}', '--linger', '900',
+                    *extra])
     try:
         live.url = live.wait_for('live view on ws://', 120).split('live view on ')[1].split()[0]
         yield SharedRun(live, 12, 2, duration, out, live.url,
