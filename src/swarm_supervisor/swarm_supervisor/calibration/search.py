@@ -155,7 +155,6 @@ def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
                 f'({len(result.score.held)}/{len(result.score.held) + len(result.score.failed)} '
                 f'claims, ratio {result.score.ratio:.3g}) {_values_text(result.values)}; '
                 f'best so far: trial {best.number} ({best.score.loss:.3f})')
-    raise_if_stopped()
     return load_results(out, design.trials)
 
 

@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.engine.inputs import check_inputs
     from swarm_supervisor.outputs.guard import check_place
     from swarm_supervisor.study.cluster import check_address, connect
-    from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
+    from swarm_supervisor.study.interrupt import StopRequest, exit_status
 
     started = time.perf_counter()
     design = load_design(args.design)
@@ -81,12 +81,11 @@ def run(args: argparse.Namespace) -> int:
                                  **options)
             confirmed = confirm(design, args.out, candidates(results, design.candidates),
                                 claims, **options)
-            raise_if_stopped()
     except KeyboardInterrupt as error:
         told = len(load_results(args.out, design.trials))
         print(f'mona-swarm calibrate: interrupted: {told} of {design.trials} trials scored and '
               'kept; rerun the same command to resume', file=sys.stderr)
-        return error.status if isinstance(error, Interrupted) else exits.INTERRUPTED
+        return exit_status(error)
     report = write_report(design, args.out, results, confirmed, started)
     best = min(confirmed or results, key=lambda r: (r.score.loss, r.number))
     print(f'{report}: {len(results)} trials, {len(confirmed)} confirmed; best: trial '

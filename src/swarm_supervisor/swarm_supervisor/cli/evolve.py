@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.evolution import EvolutionError, evolve, load_design
     from swarm_supervisor.outputs.guard import check_place
     from swarm_supervisor.study.cluster import check_address
-    from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
+    from swarm_supervisor.study.interrupt import StopRequest, exit_status
 
     if args.scheduler and args.jobs:
         raise EvolutionError('--jobs and --scheduler exclude each other (a cluster has as '
@@ -62,11 +62,10 @@ def run(args: argparse.Namespace) -> int:
         with StopRequest():
             rows = evolve(design, args.out, jobs=args.jobs or 1, scheduler=args.scheduler,
                           scheduler_timeout=args.scheduler_timeout, shown=args.shown)
-            raise_if_stopped()
     except KeyboardInterrupt as error:
         print('mona-swarm evolve: interrupted: the generations finished are kept; rerun the '
               'same command to resume', file=sys.stderr)
-        return error.status if isinstance(error, Interrupted) else exits.INTERRUPTED
+        return exit_status(error)
     validated = [row['validation'] for row in rows if 'validation' in row]
     if validated:
         print(f'{args.out}: {len(rows)} generations, best validation of the mean '

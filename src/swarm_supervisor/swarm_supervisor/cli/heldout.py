@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.evolution.heldout import PlanError, load_plan, run_chunks
     from swarm_supervisor.evolution.heldout_report import report
     from swarm_supervisor.evolution.heldout_stats import behaviour_table, figure, summarise
-    from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
+    from swarm_supervisor.study.interrupt import Interrupted, StopRequest
 
     plan = load_plan(args.plan)
     only = None if args.only is None else set(args.only.split(','))
@@ -54,7 +54,6 @@ def run(args: argparse.Namespace) -> int:
         with StopRequest():
             run_chunks(plan, args.out, pool, args.jobs, only)
             table = behaviour_table(plan, args.out, pool) if args.behaviour else {}
-            raise_if_stopped()
     except Interrupted as error:
         print('mona-swarm heldout: interrupted: the scores written are kept; rerun the same '
               'command to resume', file=sys.stderr)

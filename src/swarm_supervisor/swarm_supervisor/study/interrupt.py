@@ -67,7 +67,9 @@ class StopRequest:
     :class:`Interrupted` in the main thread (a context manager; it restores the previous
     handlers on exit). A later signal while the study stops (terminating the workers,
     recording what it kept) changes nothing. Nested, an inner request that received a signal
-    hands it to the outer one as it exits (see :func:`raise_if_stopped`)."""
+    hands it to the outer one as it exits; the outermost one raises :class:`Interrupted` as
+    it exits if it received a signal whose exception was lost (see :func:`raise_if_stopped`),
+    so a command never ends as if no signal had come."""
 
     def __init__(self) -> None:
         #: The first signal received, or None.
@@ -81,13 +83,19 @@ class StopRequest:
             _ACTIVE.append(self)
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)
-        if self in _ACTIVE:
-            _ACTIVE.remove(self)
-            if self.requested is not None and _ACTIVE and _ACTIVE[-1].requested is None:
+        if self not in _ACTIVE:
+            return
+        _ACTIVE.remove(self)
+        if self.requested is None:
+            return
+        if _ACTIVE:  # the enclosing request stops at its next check, or as it exits
+            if _ACTIVE[-1].requested is None:
                 _ACTIVE[-1].requested = self.requested
+        elif kind is None:  # the handler's exception was lost on the way
+            raise Interrupted(self.requested)
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.requested is not None:
@@ -100,8 +108,9 @@ class StopRequest:
 _ACTIVE: list[StopRequest] = []
 
 
-def raise_if_stopped() -> None:
-    """Raise :class:`Interrupted` if a stop request in force received a signal.
+def raise_if_stopped(ran: dict[str, tuple[float, float]] | None = None) -> None:
+    """Raise :class:`Interrupted` (with ``ran``, what finished) if a stop request in force
+    received a signal.
 
     The handler's exception is lost when the signal lands while Python runs a weakref
     callback or a ``__del__`` (it only prints "Exception ignored in ..."): a Ctrl-C amid
@@ -110,4 +119,10 @@ def raise_if_stopped() -> None:
     """
     for request in _ACTIVE:
         if request.requested is not None:
-            raise Interrupted(request.requested)
+            raise Interrupted(request.requested, ran)
+
+
+def exit_status(stop: KeyboardInterrupt) -> int:
+    """A command's exit status after ``stop``: 130 for SIGINT (a plain Ctrl-C too), 143 for
+    SIGTERM."""
+    return stop.status if isinstance(stop, Interrupted) else exits.INTERRUPTED

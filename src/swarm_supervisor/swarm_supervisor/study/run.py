@@ -32,7 +32,7 @@ from swarm_supervisor.study.folder import (
     TIMING_FILE,
     claim_study_folder,
 )
-from swarm_supervisor.study.interrupt import Interrupted, StopRequest
+from swarm_supervisor.study.interrupt import Interrupted, StopRequest, raise_if_stopped
 from swarm_supervisor.study.local import available_cpus, run_local
 from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, snapshot_times
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
@@ -192,6 +192,9 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
                                   start_method=start_method, scheduler=scheduler,
                                   scheduler_timeout=scheduler_timeout, batch_size=batch_size,
                                   client=client)
+            # A signal whose exception was lost while the pool's results were awaited: the
+            # episodes ran, but the stop was asked for (docs/study.md).
+            raise_if_stopped(ran)
         except Interrupted as stopped:
             workers = 0 if scheduler else max(1, min(jobs or available_cpus(), len(pending)))
             stopped.kept = record(stopped.ran, workers, f'interrupted by {stopped.name}')
