@@ -9,9 +9,11 @@ the app's problem list and the playback clock.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import re
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import urlencode
@@ -232,6 +234,23 @@ class FoxgloveApp:
         view.problems = self.sidebar_tab('Problems')
         self.sidebar_tab('Topics')
         return view
+
+    @contextlib.contextmanager
+    def minimised(self) -> Iterator[None]:
+        """The page's window minimised meanwhile, as when a user switches to another window:
+        the page keeps its connection and its scripts run (the panels' text keeps up), but
+        chromium composites no frames, so the 3D panel is not redrawn in software at more than
+        a core (2026-12-05, a live page: 18 -> 3 CPU-s per 10 s)."""
+        cdp = self.page.context.new_cdp_session(self.page)
+        window = cdp.send('Browser.getWindowForTarget')['windowId']
+        cdp.send('Browser.setWindowBounds',
+                 {'windowId': window, 'bounds': {'windowState': 'minimized'}})
+        try:
+            yield
+        finally:
+            cdp.send('Browser.setWindowBounds',
+                     {'windowId': window, 'bounds': {'windowState': 'normal'}})
+            cdp.detach()
 
     def save(self, name: str) -> Path:
         """A full-page screenshot ``<shots>/<name>.png``."""

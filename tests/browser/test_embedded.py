@@ -92,8 +92,10 @@ def test_the_live_view_shows_the_episode_and_keeps_it_after_the_end(browser, ser
         view, found = settle(app, live)  # every panel fills (maybe only after the end)
         print(app.save('embedded_live'))
         assert found == []
-        # The episode ends; the viewer keeps its final state on screen (no reconnect).
-        run.wait_lingering()
+        # The episode ends; the viewer keeps its final state on screen (no reconnect), also
+        # when its window was minimised meanwhile (the page draws nothing then).
+        with app.minimised():
+            run.wait_lingering()
         app.page.wait_for_timeout(3000)
         final, found = settle(app, live, enough=lambda found: not found and
                               '"state": "finished"' in app.text(STATUS))

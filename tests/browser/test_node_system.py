@@ -63,7 +63,10 @@ def test_the_live_view_shows_the_node_system_and_keeps_it_after_the_end(browser,
         view, found = settle(app, live)  # every panel fills (maybe only after the end)
         print(app.save('node_system_live'))
         assert found == []
-        run.wait_lingering()
+        # Until the end the window is minimised (the user looks elsewhere): the page takes
+        # every message in but draws none, and is shown again for the final look.
+        with app.minimised():
+            run.wait_lingering()
         final, found = settle(app, live, enough=lambda found: not found and
                               '"state": "finished"' in app.text(STATUS))
         print(app.save('node_system_live_after_the_end'))
