@@ -15,12 +15,15 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         # The shipped configuration (links into ros_ws/config: the default parameter file, the
-        # Fast DDS profile, the Foxglove layout, the profiles of Monas), so that an installed
-        # package finds it without the source tree (swarm_supervisor.config.shipped).
+        # Fast DDS profile, the Foxglove layout, the profiles of Monas, the learned controllers
+        # with their weights), so that an installed package finds it without the source tree
+        # (swarm_supervisor.config.shipped; the warm step runs the learned controllers).
         ('share/' + package_name + '/config',
          ['config/mona_swarm.yaml', 'config/fastdds_localhost.xml',
           'config/foxglove_layout.json']),
         ('share/' + package_name + '/config/profiles', sorted(glob('config/profiles/*.yaml'))),
+        ('share/' + package_name + '/config/controllers',
+         sorted(glob('config/controllers/*.yaml') + glob('config/controllers/*.npz'))),
     ],
     install_requires=[
         'numpy',
