@@ -3,7 +3,9 @@
 ``pip install .`` (the repository root's pyproject.toml) into a fresh virtual environment, from
 a copy of the repository's files (pip builds in the tree it is given): the root's
 distribution and the four packages it names by path are built and installed (not editable),
-and ``pip check`` finds every requirement met. Then, from a temporary folder outside the
+and ``pip check`` finds every requirement met. The warm step then reaches every cached numba
+kernel of the installed copies, on their empty cache (as docs/architecture.md tells a user
+who installed without ``make venv`` to run it). Then, from a temporary folder outside the
 repository and with nothing of the repository on the path, the recipes of docs/extending.md
 exactly as the page has them: each file of ``my_swarm/`` (a metric, a controller kind, an
 obstacle layout, the parameter file naming them, a claim) written from the page, each of its
@@ -176,6 +178,59 @@ def test_the_recipes_parse():
     for needed in ('mona-swarm run', 'mona-swarm study', 'mona-swarm analyze',
                    'mona-swarm launch', '--claims claims.yaml'):
         assert needed in script
+
+
+# In a fresh process on the installed copies' empty cache: import every module of the
+# packages (a kernel in a module that warm never imports counts too), then warm, then report
+# each cached kernel's compiled signatures.
+WARM_PROBE = """
+import importlib, json, pkgutil
+from swarm_supervisor.engine import warm
+for package in warm.PACKAGES:
+    root = importlib.import_module(package)
+    for info in pkgutil.walk_packages(root.__path__, package + '.'):
+        if not info.name.endswith('__main__'):
+            importlib.import_module(info.name)
+before = {name: len(kernel.signatures) for name, kernel in warm.cached_kernels()}
+warmed = warm.warm_kernels()
+after = {name: len(kernel.signatures) for name, kernel in warm.cached_kernels()}
+print(json.dumps({'before': before, 'after': after, 'kernels': warmed.kernels}))
+"""
+
+
+def test_warm_compiles_every_cached_kernel(installed: Path, tmp_path: Path):
+    """The warm step (swarm_supervisor.engine.warm) reaches every cached numba kernel of the
+    four packages: run on an empty cache, each ``cache=True`` kernel of any module compiles
+    and writes its cache index. A new cached kernel that it does not reach fails here, so the
+    kernel would not be compiled in parallel by the processes started after ``make venv``,
+    the suite's controller or a user warmed the cache (numba/numba#4807). (It runs first on
+    the fresh venv, so the recipes below find the cache warm, as a user's would be.)"""
+    env = user_environment(installed)
+    site = installed.parent / 'lib' / f'python{sys.version_info[0]}.{sys.version_info[1]}' \
+        / 'site-packages'
+    assert not list(site.rglob('*.nbi')), 'the installed copies have a numba cache already'
+    # A hang's bound: the compilation is about 40 s of CPU, but took over 10 min of wall
+    # time on 2 cores loaded 10 times over.
+    done = run([str(installed / 'python'), '-c', WARM_PROBE], cwd=tmp_path, env=env,
+               timeout=1800)
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    before, after = report['before'], report['after']
+    # The probe found the kernels (34 when this was written), none compiled by importing.
+    assert len(before) >= 30 and not any(before.values()), before
+    # The kernels it found are the source's: one per ``cache=True`` in the packages (an
+    # independent count, so a kernel the discovery misses fails here).
+    source = sum(len(re.findall(r'^\s*@.*cache=True', path.read_text(), re.MULTILINE))
+                 for path in (REPO / 'src').rglob('*.py'))
+    assert report['kernels'] == len(after) == source
+    missed = sorted(name for name, signatures in after.items() if not signatures)
+    assert not missed, ('cached kernels the warm step does not compile (add the feature '
+                        f'that reaches them to swarm_supervisor.engine.warm): {missed}')
+    # Each wrote its index beside its installed source: __pycache__/<module>.<function>-
+    # <line>.py<version>.nbi.
+    indexes = {path.name.split('-')[0] for path in site.rglob('*.nbi')}
+    unwritten = sorted(name for name in after
+                       if '.'.join(name.split('.')[-2:]) not in indexes)
+    assert not unwritten, f'cached kernels without a cache index: {unwritten}'
 
 
 def test_the_installed_copies_run(installed: Path, tmp_path: Path):
