@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import cast
 
@@ -60,7 +62,6 @@ from swarm_supervisor.system.processes import (
     stop_groups,
     wait_for_log,
     wait_gone,
-    write_ros_env,
 )
 from swarm_supervisor.system.progress import ProgressLine, read_progress
 from swarm_supervisor.system.records import incomplete_records
@@ -95,6 +96,16 @@ def last_error(log: Path) -> str:
         return ''
     errors = [line for line in lines if line.startswith(('[ERROR]', '[FATAL]'))]
     return errors[-1].split(']: ', 1)[-1] if errors else ''
+
+
+def write_ros_env(path: Path, env: dict[str, str]) -> None:
+    """ros_env.sh: source it to reach the run from another shell."""
+    lines = ['# source this file to reach the run from another shell (ros2 topic echo, rviz2, '
+             '...)']
+    for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
+        lines.append(f'export {key}={shlex.quote(env[key])}')
+    lines.append('unset ROS_AUTOMATIC_DISCOVERY_RANGE ROS_LOCALHOST_ONLY ROS_STATIC_PEERS')
+    path.write_text('\n'.join(lines) + '\n')
 
 
 class Run:
@@ -135,9 +146,10 @@ class Run:
         """The started processes still running."""
         return [process for process in self.nodes.values() if process.poll() is None]
 
-    def note_shm(self) -> None:
-        """Remember the Fast DDS /dev/shm files the nodes map (a killed one cannot tell)."""
-        self.seen_shm |= groups_shm([process.pid for process in self.live()])
+    def note_shm(self, stop: Callable[[], bool] = lambda: False) -> None:
+        """Remember the Fast DDS /dev/shm files the nodes map (a killed one cannot tell); give
+        up early once ``stop()`` holds."""
+        self.seen_shm |= groups_shm([process.pid for process in self.live()], stop)
 
     def wait(self) -> str:
         """Wait for the supervisor: 'finished' or 'failed' with it, 'failed' when the world or
@@ -172,8 +184,8 @@ class Run:
             if now - shown >= PROGRESS_EVERY and 'supervisor' in self.nodes:
                 say(progress.line(read_progress(self.out), now - started))
                 shown = now
-            if now - noted >= NOTE_SHM_EVERY:
-                self.note_shm()
+            if now - noted >= NOTE_SHM_EVERY:  # a signal cuts it short: stop() notes again
+                self.note_shm(self.interrupted)
                 noted = now
             if self.timeout and now - started > self.timeout:
                 say(f'no result after the --timeout of {self.timeout} s: stopping the run')

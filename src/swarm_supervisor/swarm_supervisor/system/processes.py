@@ -13,7 +13,6 @@ import fcntl
 import os
 import re
 import resource
-import shlex
 import signal
 import socket
 import subprocess
@@ -300,10 +299,14 @@ def group_pids(pgid: int) -> list[int]:
     return _groups({pgid}).get(pgid, [])
 
 
-def _groups(pgids: set[int]) -> dict[int, list[int]]:
-    """Process group id -> its live processes, for the groups in ``pgids`` (one /proc scan)."""
+def _groups(pgids: set[int], stop: Callable[[], bool] | None = None
+            ) -> dict[int, list[int]]:
+    """Process group id -> its live processes, for the groups in ``pgids`` (one /proc scan,
+    cut short once ``stop()`` holds)."""
     found: dict[int, list[int]] = {}
     for stat in Path('/proc').glob('[0-9]*/stat'):
+        if stop is not None and stop():
+            break
         with contextlib.suppress(OSError, ValueError, IndexError):
             fields = stat.read_text().rsplit(')', 1)[1].split()
             pgid = int(fields[2])
@@ -338,12 +341,16 @@ def _shm_names(text: str) -> set[str]:
             if word.startswith('/dev/shm/') and word[len('/dev/shm/'):].startswith(SHM_PREFIXES)}
 
 
-def mapped_shm(pids: Sequence[int] | None = None) -> set[str]:
-    """The Fast DDS /dev/shm files that the given processes (default: all) map or hold open."""
+def mapped_shm(pids: Sequence[int] | None = None, stop: Callable[[], bool] | None = None
+               ) -> set[str]:
+    """The Fast DDS /dev/shm files that the given processes (default: all) map or hold open
+    (those of the processes read before ``stop()`` held, if it does)."""
     used: set[str] = set()
     procs = [Path('/proc') / str(pid) for pid in pids] if pids is not None else \
         list(Path('/proc').glob('[0-9]*'))
     for proc in procs:
+        if stop is not None and stop():
+            break
         with contextlib.suppress(OSError):
             used |= _shm_names((proc / 'maps').read_text())
         with contextlib.suppress(OSError):
@@ -353,9 +360,12 @@ def mapped_shm(pids: Sequence[int] | None = None) -> set[str]:
     return used
 
 
-def groups_shm(pgids: Sequence[int]) -> set[str]:
-    """The /dev/shm files the processes of groups ``pgids`` map now (a killed one can't tell)."""
-    return mapped_shm([pid for pids in _groups(set(pgids)).values() for pid in pids])
+def groups_shm(pgids: Sequence[int], stop: Callable[[], bool] | None = None) -> set[str]:
+    """The /dev/shm files the processes of groups ``pgids`` map now (a killed one can't tell);
+    the scan ends early once ``stop()`` holds: on a machine crowded by a start-up it reads
+    dozens of processes' maps at a small share of a core, and a signal must not wait for it."""
+    return mapped_shm([pid for pids in _groups(set(pgids), stop).values() for pid in pids],
+                      stop)
 
 
 def remove_shm_leftovers(domain: int, seen: set[str] | frozenset[str] = frozenset()
@@ -386,13 +396,3 @@ def busy_cores(count: int | None = None, limit: float = 900.0) -> Iterator[None]
         for loop in loops:
             loop.kill()
             loop.wait()
-
-
-def write_ros_env(path: Path, env: dict[str, str]) -> None:
-    """ros_env.sh: source it to reach the run from another shell."""
-    lines = ['# source this file to reach the run from another shell (ros2 topic echo, rviz2, '
-             '...)']
-    for key in ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
-        lines.append(f'export {key}={shlex.quote(env[key])}')
-    lines.append('unset ROS_AUTOMATIC_DISCOVERY_RANGE ROS_LOCALHOST_ONLY ROS_STATIC_PEERS')
-    path.write_text('\n'.join(lines) + '\n')
