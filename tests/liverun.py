@@ -10,7 +10,7 @@ work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in file or
   examples/obstacle_layout.yaml's obstacles): about 67 s of wall time from its start. (The
   browser's live test watches a run of its own, :func:`held_embedded_run`, whose episode
   waits for the page: on a busy 2-core machine this one had ended before a page had loaded.)
-- ``node_live``: ``scripts/swarm.sh --live`` (lockstep, N = 8, seed 4, 80 s, the same
+- ``node_live``: ``scripts/swarm.sh --live`` (lockstep, N = 5, seed 4, 80 s, the same
   obstacles): lockstep runs about as fast as real time here.
 
 A client subscribes as soon as the live view listens and keeps what it sees until the episode
@@ -209,17 +209,17 @@ def _embedded_run(out: Path, duration: float, pace: float, *extra: str, watched:
 
 
 def node_live_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SharedRun]:
-    """The node system's lingering live run: lockstep, N = 8, seed 4, 80 s, among the
+    """The node system's lingering live run: lockstep, N = 5, seed 4, 80 s, among the
     example obstacles."""
     port = free_port()
     out = tmp_path_factory.mktemp('node_live') / 'run'
-    swarm = SwarmRun(out, ['--population', '8', '--duration', '80', '--seed', '4',
+    swarm = SwarmRun(out, ['--population', '5', '--duration', '80', '--seed', '4',
                            '--mode', 'lockstep', '--config', str(OBSTACLES), '--live',
                            '--live-port', str(port), '--linger', '900',
                            '-p', 'real_time_factor:=1.0'])  # watchable: at most real time
     url = f'ws://127.0.0.1:{port}'
     try:
-        yield SharedRun(swarm, 8, 4, 80.0, out, url, Watcher(url, watched_enough),
+        yield SharedRun(swarm, 5, 4, 80.0, out, url, Watcher(url, watched_enough),
                         lambda timeout: swarm.wait_for(
                             lambda: 'keeps serving its final state' in swarm.stderr,
                             'the end of the run', timeout))

@@ -279,5 +279,8 @@ class FoxgloveApp:
             if result:
                 return result
             if time.monotonic() > deadline:
-                raise AssertionError(f'the app never showed {what} in {timeout:.0f} s')
+                shot = self.save('never_showed')
+                raise AssertionError(f'the app never showed {what} in {timeout:.0f} s; the '
+                                     f'status panel shows {self.text(STATUS)!r}; the page is '
+                                     f'in {shot}')
             self.page.wait_for_timeout(every * 1000)

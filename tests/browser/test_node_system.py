@@ -27,7 +27,7 @@ PILLARS = 6 * np.pi * 0.06 ** 2
 
 @pytest.fixture
 def run(node_live: SharedRun) -> SharedRun:
-    """The node system's lingering live run (tests/liverun.py): lockstep, N = 8, seed 4,
+    """The node system's lingering live run (tests/liverun.py): lockstep, N = 5, seed 4,
     80 s, among examples/obstacle_layout.yaml's obstacles, held to real time at most
     (real_time_factor 1.0: lockstep alone runs several times faster); the page opens as
     soon as the live node listens (the world waits for the controllers meanwhile), and 80 sim

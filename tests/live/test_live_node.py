@@ -3,7 +3,7 @@
 The live node forwards the recorded topics as the raw CDR the world, the supervisor and the
 metrics node publish; the client decodes them with the advertised ``ros2msg`` schemas. The
 run watched is the one the browser tier opens too (``node_live``, tests/liverun.py: lockstep,
-N = 8, seed 4, 80 s, among examples/obstacle_layout.yaml's obstacles, lingering until its
+N = 5, seed 4, 80 s, among examples/obstacle_layout.yaml's obstacles, lingering until its
 last test here is over, when Ctrl-C must end it with status 0 and nothing rewritten).
 """
 
