@@ -68,11 +68,13 @@ ROBOT3_SLOW_DELAY = 0.1
 ROBOT3_DRIVES = range(40, 50)  #: robot 3 drives forward at ROBOT3_SPEED for these steps
 ROBOT3_SPEED = 0.05
 ROBOT4_SILENT = range(5, 60)
-#: The probe's history for the readings, the markers, the status and the maps: deeper than
+#: The probe's history for the readings, the markers, the status, the maps, the sources and
+#: the obstacles: deeper than
 #: the page's keep last 5 or 1 (a subscriber's depth is its own, and a latched writer's depth
 #: still bounds what a late subscriber gets), so a probe slowed down by a loaded machine loses
 #: none that reached it (with depth 1 a status or map overwritten before the probe took it
-#: failed the once-per-period rules under load, 2026-12-05). What a probe stalled off the CPU
+#: failed the once-per-period rules under load, 2026-12-05; so did the sources sent with a map,
+#: kept at depth 1 until ci47). What a probe stalled off the CPU
 #: never received, the world's own keep-last history dropped: inner_suite.READINGS_RULES.
 LISTENER_DEPTH = 200
 ROBOT4_CLEANER_STEP = 4
@@ -141,8 +143,8 @@ class Probe(Node):
                 ('cue_map', Image, qos(LISTENER_DEPTH, latched=True)),
                 ('cue_grid', OccupancyGrid, qos(LISTENER_DEPTH, latched=True)),
                 ('markers', MarkerArray, qos(LISTENER_DEPTH)),
-                ('obstacles', MarkerArray, qos(1, latched=True)),
-                ('sources', MarkerArray, qos(1, latched=True))):
+                ('obstacles', MarkerArray, qos(LISTENER_DEPTH, latched=True)),
+                ('sources', MarkerArray, qos(LISTENER_DEPTH, latched=True))):
             self.create_subscription(kind, f'/world/{name}',
                                      lambda msg, name=name: self.latched[name].append(
                                          (self.clock(), msg)), profile)
