@@ -213,13 +213,15 @@ def node_live_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SharedRu
     example obstacles."""
     port = free_port()
     out = tmp_path_factory.mktemp('node_live') / 'run'
-    swarm = SwarmRun(out, ['--population', '5', '--duration', '80', '--seed', '4',
+    population, seed, duration = 5, 4, 80.0  # given once: the checks read them from here
+    swarm = SwarmRun(out, ['--population', str(population), '--duration', f'{duration:g}',
+                           '--seed', str(seed),
                            '--mode', 'lockstep', '--config', str(OBSTACLES), '--live',
                            '--live-port', str(port), '--linger', '900',
                            '-p', 'real_time_factor:=1.0'])  # watchable: at most real time
     url = f'ws://127.0.0.1:{port}'
     try:
-        yield SharedRun(swarm, 5, 4, 80.0, out, url, Watcher(url, watched_enough),
+        yield SharedRun(swarm, population, seed, duration, out, url, Watcher(url, watched_enough),
                         lambda timeout: swarm.wait_for(
                             lambda: 'keeps serving its final state' in swarm.stderr,
                             'the end of the run', timeout))
