@@ -267,7 +267,7 @@ def register(metric: Metric) -> Metric:
     """Add ``metric`` to :data:`METRICS` (after those there).
 
     Takes effect in this process for everything computed or recorded from then on; another
-    process (a spawned study worker, the metrics node) has it only if it registers it too:
+    process (a study worker, the metrics node) has it only if it registers it too:
     call it in a plug-in (:mod:`mona_controller.plugins`), which every process loads.
 
     Returns:

@@ -18,6 +18,7 @@ from swarm_supervisor.analysis.report import analyse, markdown_table
 from swarm_supervisor.calibration.design import CalibrationDesign
 from swarm_supervisor.calibration.objective import score
 from swarm_supervisor.calibration.search import TrialResult
+from swarm_supervisor.study.workers import START_METHOD
 
 TRIALS_CSV = 'trials.csv'
 CONFIRM_DIR = 'confirm'
@@ -39,7 +40,7 @@ def candidates(results: Sequence[TrialResult], count: int) -> list[TrialResult]:
 
 def confirm(design: CalibrationDesign, out: Path, chosen: Sequence[TrialResult],
             claims: Sequence[Claim], *, jobs: int | None = None, scheduler: str | None = None,
-            scheduler_timeout: float = 30.0, start_method: str = 'spawn'
+            scheduler_timeout: float = 30.0, start_method: str = START_METHOD
             ) -> list[TrialResult]:
     """Run each chosen trial on the full study into ``out/confirm/trial_<n>`` (a study folder
     with its own report.md; resumable) and score it there."""

@@ -31,6 +31,7 @@ from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study import plan, run_tasks, tidy_table, write_table
 from swarm_supervisor.study.interrupt import raise_if_stopped
 from swarm_supervisor.study.table import TABLE_FILE
+from swarm_supervisor.study.workers import START_METHOD
 
 STORAGE = 'calibration.db'
 STUDY_NAME = 'calibration'
@@ -110,7 +111,7 @@ def trial_dir(out: Path, number: int) -> Path:
 
 def run_search(design: CalibrationDesign, out: Path, claims: Sequence[Claim], *,
                jobs: int | None = None, scheduler: str | None = None,
-               scheduler_timeout: float = 30.0, start_method: str = 'spawn',
+               scheduler_timeout: float = 30.0, start_method: str = START_METHOD,
                keep_episodes: bool = False,
                say: Callable[[str], None] = lambda line: print(line, file=sys.stderr)
                ) -> list[TrialResult]:
@@ -173,7 +174,7 @@ def _values_text(values: dict[str, Any]) -> str:
 def evaluate(design: CalibrationDesign, out: Path, batch: Sequence[tuple[int, dict[str, Any]]],
              claims: Sequence[Claim], *, jobs: int | None = None,
              scheduler: str | None = None, scheduler_timeout: float = 30.0,
-             start_method: str = 'spawn', keep_episodes: bool = False) -> list[TrialResult]:
+             start_method: str = START_METHOD, keep_episodes: bool = False) -> list[TrialResult]:
     """Run the screening studies of a batch of trials together and score each one; each
     trial's folder keeps trial.json and its all_metrics.csv (its episodes only with
     ``keep_episodes``; the episodes it deletes get no picture)."""

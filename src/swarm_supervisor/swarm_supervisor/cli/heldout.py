@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import sys
 from pathlib import Path
 
@@ -42,13 +41,14 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.evolution.heldout_report import report
     from swarm_supervisor.evolution.heldout_stats import behaviour_table, figure, summarise
     from swarm_supervisor.study.interrupt import Interrupted, StopRequest
+    from swarm_supervisor.study.workers import context
 
     plan = load_plan(args.plan)
     only = None if args.only is None else set(args.only.split(','))
     if only is not None and not only <= set(plan.controllers):
         raise PlanError(f"--only {args.only}: the plan's controllers are "
                         + ', '.join(plan.controllers))
-    pool = multiprocessing.get_context('spawn').Pool(args.jobs) if args.jobs > 1 else None
+    pool = context().Pool(args.jobs) if args.jobs > 1 else None
     try:
         # Ctrl-C or SIGTERM stops it wherever it is (between chunks too, docs/study.md).
         with StopRequest():

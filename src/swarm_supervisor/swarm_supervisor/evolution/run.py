@@ -10,8 +10,9 @@ replaced atomically (``os.replace``): the pickled optimiser, the generator's sta
 generation and the rows of ``generations.csv``. A run started on a folder with a checkpoint
 of the same design carries on from it, so the same seed and design give the same run,
 interrupted or not (wall times aside). The episodes run in this process, on a pool of
-spawned processes (``jobs``) or on the workers of a Dask scheduler (``scheduler``,
-:mod:`swarm_supervisor.evolution.cluster`), with the same scores on each.
+worker processes (``jobs``, :mod:`swarm_supervisor.study.workers`) or on the workers of a
+Dask scheduler (``scheduler``, :mod:`swarm_supervisor.evolution.cluster`), with the same
+scores on each.
 
 With ``validation`` > 0 the optimiser's mean is scored on a fixed validation set every
 ``validate_every`` generations (:mod:`swarm_supervisor.evolution.validation`), and the run
@@ -31,7 +32,6 @@ from __future__ import annotations
 
 import csv
 import json
-import multiprocessing
 import os
 import pickle
 import sys
@@ -51,6 +51,7 @@ from swarm_supervisor.evolution.genomes import save_genome, start_genome
 from swarm_supervisor.outputs.lock import hold
 from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
 from swarm_supervisor.study.interrupt import raise_if_stopped
+from swarm_supervisor.study.workers import context
 
 #: The columns of generations.csv.
 COLUMNS = ('generation', 'best', 'mean', 'worst', 'sigma', 'wall_s')
@@ -159,7 +160,7 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = 
            on_checkpoint: Any = None) -> list[dict[str, float]]:
     """Run (or resume) the evolution of ``design`` in ``out``; the rows of generations.csv.
 
-    ``jobs`` > 1 scores the episodes on that many spawned worker processes; ``scheduler``
+    ``jobs`` > 1 scores the episodes on that many worker processes; ``scheduler``
     (a Dask scheduler's address) on that cluster's workers instead (:mod:`.cluster`), the
     same scores; ``shown`` shows the progress bar (None: only on a terminal).
 
@@ -176,7 +177,7 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = 
             raise
         cluster.close()
         return rows
-    pool = multiprocessing.get_context('spawn').Pool(jobs) if jobs > 1 else None
+    pool = context().Pool(jobs) if jobs > 1 else None
     try:
         rows = _evolve(design, out, pool, jobs, shown, on_checkpoint)
     except BaseException:

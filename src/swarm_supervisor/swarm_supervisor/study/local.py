@@ -15,6 +15,7 @@ from swarm_supervisor.study import progress
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
+from swarm_supervisor.study.workers import START_METHOD, context
 
 
 def available_cpus() -> int:
@@ -27,7 +28,7 @@ def available_cpus() -> int:
 
 def _init_worker(counter, started, records: tuple[Plugin, ...]) -> None:
     """Pool initializer: count the worker, load the study's plug-ins before any task reaches
-    it (a task's configuration holds their classes: a spawned worker could not unpickle it),
+    it (a task's configuration holds their classes: a worker started afresh could not unpickle it),
     then share the progress counter."""
     with started.get_lock():
         started.value += 1
@@ -36,7 +37,7 @@ def _init_worker(counter, started, records: tuple[Plugin, ...]) -> None:
 
 
 def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool | None,
-              start_method: str = 'spawn') -> dict[str, tuple[float, float]]:
+              start_method: str = START_METHOD) -> dict[str, tuple[float, float]]:
     """Run the batches of tasks (:func:`~swarm_supervisor.study.tasks.make_batches`) over a
     pool of ``jobs`` processes, with progress bars (``shown``: True, False, or None for only
     on a terminal).
@@ -57,12 +58,12 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
     pending = [task for batch in batches for task in batch]
     if not pending:
         return {}
-    context = multiprocessing.get_context(start_method)
-    counter = context.Value('d', 0.0)
-    started = context.Value('i', 0)  # workers started: more than ``jobs`` means one died
+    workers = context(start_method)
+    counter = workers.Value('d', 0.0)
+    started = workers.Value('i', 0)  # workers started: more than ``jobs`` means one died
     total = sum(task.config.episode.duration for task in pending)
     ran: dict[str, tuple[float, float]] = {}
-    pool = context.Pool(jobs, initializer=_init_worker,
+    pool = workers.Pool(jobs, initializer=_init_worker,
                         initargs=(counter, started, tuple(pending[0].config.plugins)))
     bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
                  '[{elapsed}<{remaining}]'

@@ -38,6 +38,7 @@ from swarm_supervisor.study.specs import EpisodeSpec, design, episode_config, sn
 from swarm_supervisor.study.table import TABLE_FILE, tidy_table, write_table
 from swarm_supervisor.study.tasks import BAG_DIR, EpisodeTask, make_batches
 from swarm_supervisor.study.validate import check_design
+from swarm_supervisor.study.workers import START_METHOD
 
 VIDEOS_DIR = 'videos'  #: one video per design cell (``study --videos``)
 
@@ -102,7 +103,7 @@ def plan(config: SwarmConfig, out_dir: str | Path, *, bag: bool = False,
 
 
 def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = None,
-              progress: bool | None = None, start_method: str = 'spawn',
+              progress: bool | None = None, start_method: str = START_METHOD,
               scheduler: str | None = None, scheduler_timeout: float = 30.0,
               bag: bool = False, videos: bool = False,
               batch_size: int = DEFAULT_BATCH_SIZE,
@@ -124,7 +125,8 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
     Args:
         jobs: worker processes (default: the CPUs this process may use).
         progress: show progress bars on stderr (None: only on a terminal).
-        start_method: the multiprocessing context ('spawn' or 'fork').
+        start_method: the local pool's multiprocessing start method ('forkserver', the
+            default: :mod:`swarm_supervisor.study.workers`; 'spawn' or 'fork').
         scheduler: the address of a Dask distributed scheduler: run the episodes on its
             workers instead of local processes (:mod:`swarm_supervisor.study.cluster`).
         scheduler_timeout: seconds to wait for the scheduler to answer.
@@ -209,7 +211,7 @@ def run_study(config: SwarmConfig, out_dir: str | Path, *, jobs: int | None = No
 
 
 def run_tasks(pending: Sequence[EpisodeTask], *, jobs: int | None = None,
-              progress: bool | None = None, start_method: str = 'spawn',
+              progress: bool | None = None, start_method: str = START_METHOD,
               scheduler: str | None = None, scheduler_timeout: float = 30.0,
               batch_size: int = DEFAULT_BATCH_SIZE, client: Any = None
               ) -> tuple[int, dict[str, tuple[float, float]]]:
