@@ -4,7 +4,7 @@ start, and the two runs the live tier (tests/live) and the browser tier (tests/b
 
 The shared runs are session fixtures (tests/conftest.py: ``embedded_live``, ``node_live``), each
 started once per pytest process by its first test; the modules using one are one unit of
-work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in file order:
+work (tests/suite.py's ``SHARED_RUNS``), so one worker runs them all, in the order listed there:
 
 - ``embedded_live``: ``mona-swarm run --live --bag --pace 3`` (N = 12, seed 2, 200 s, among
   examples/obstacle_layout.yaml's obstacles): about 67 s of wall time from its start. (The

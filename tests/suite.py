@@ -29,7 +29,8 @@ import pytest
 from xdist.scheduler import LoadScopeScheduling
 
 #: Modules that look at one session-scoped run, by the run's fixture, longest first: each
-#: group is one unit of work (tests/liverun.py, tests/conformance/conftest.py's ``run``).
+#: group is one unit of work (tests/liverun.py, tests/conformance/conftest.py's ``run``), its
+#: modules run in the order listed.
 SHARED_RUNS = {
     'node_live': ('tests/browser/test_node_system.py', 'tests/live/test_live_node.py'),
     'embedded_live': ('tests/browser/test_embedded.py', 'tests/live/test_live_embedded.py'),
@@ -86,15 +87,25 @@ def rank(item: pytest.Item) -> int:
     return ROS if item.get_closest_marker('ros') else QUICK
 
 
+def shared_place(module: str) -> tuple[int, int]:
+    """(its run's place in :data:`SHARED_RUNS`, its place among that run's modules); (0, 0)
+    for a module of no shared run."""
+    if module not in SHARED_MODULES:
+        return 0, 0
+    run = SHARED_MODULES[module]
+    return list(SHARED_RUNS).index(run), SHARED_RUNS[run].index(module)
+
+
 def order(items: list[pytest.Item]) -> None:
     """Sort ``items`` so that the units that take longest come first (a module's tests stay
-    together, in their order; the shared runs in :data:`SHARED_RUNS`' order)."""
-    runs = list(SHARED_RUNS)
-    module_rank: dict[str, tuple[int, int]] = {}
+    together, in their order; the shared runs in :data:`SHARED_RUNS`' order, and a run's
+    modules in the order listed there, whatever order the command line gave: the browser's
+    live test must open its run while the episode runs)."""
+    module_rank: dict[str, tuple[int, int, int]] = {}
     for item in items:
         module = module_of(item.nodeid)
-        shared = runs.index(SHARED_MODULES[module]) if module in SHARED_MODULES else 0
-        module_rank[module] = min(module_rank.get(module, (QUICK, 0)), (rank(item), shared))
+        module_rank[module] = min(module_rank.get(module, (QUICK, 0, 0)),
+                                  (rank(item), *shared_place(module)))
     items.sort(key=lambda item: module_rank[module_of(item.nodeid)])
 
 

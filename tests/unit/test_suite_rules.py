@@ -123,3 +123,27 @@ def test_a_shared_fixture_ends_after_the_last_test_of_its_unit_that_uses_it(tmp_
     assert len([event for event in events if event.startswith('scenery on')]) == 1
     assert [event for event in events if not event.startswith('scenery')] == \
         ['browser up', 'first', 'second', 'browser down', 'third']
+
+
+class Listed:
+    """What :func:`suite.order` reads of a pytest item: its id and its marks (none)."""
+
+    def __init__(self, nodeid: str) -> None:
+        self.nodeid = nodeid
+
+    def get_closest_marker(self, name: str) -> None:
+        return None
+
+
+def test_a_shared_runs_modules_run_in_the_listed_order_whatever_the_command_line():
+    """``pytest tests/live tests/browser`` collects the live module first; the browser's
+    module must still come first (its live test opens the run while the episode runs)."""
+    import suite  # tests/, on the path as the conftest's folder
+
+    live = 'tests/live/test_live_node.py::test_seen'
+    browser = 'tests/browser/test_node_system.py::test_shown'
+    quick = 'tests/unit/test_quick.py::test_quick'
+    embedded = 'tests/live/test_live_embedded.py::test_seen'
+    items = [Listed(quick), Listed(embedded), Listed(live), Listed(browser)]
+    suite.order(items)  # type: ignore[arg-type]
+    assert [item.nodeid for item in items] == [browser, live, embedded, quick]
