@@ -43,6 +43,19 @@ def command(config: Path, out: Path) -> list[str]:
             '--out', str(out), '--jobs', '1', '--batch-size', '2']
 
 
+def session(sid: int) -> list[int]:
+    """The live processes of session ``sid`` (zombies, which run nothing, left out)."""
+    found = []
+    for stat in Path('/proc').glob('[0-9]*/stat'):
+        try:  # after the name: state, parent, process group, session, ...
+            state, _, _, member = stat.read_text().rsplit(')', 1)[1].split()[:4]
+        except (OSError, ValueError):
+            continue  # gone meanwhile
+        if int(member) == sid and state != 'Z':
+            found.append(int(stat.parent.name))
+    return found
+
+
 def written(out: Path) -> list[Path]:
     """The episode folders that are in place (hidden .partial folders are not)."""
     folder = out / study.EPISODES_DIR
@@ -200,17 +213,17 @@ def test_ctrl_c_stops_the_workers_and_the_study_resumes(tmp_path):
         assert process.returncode == 130, err
         assert 'interrupted' in err
         deadline = time.monotonic() + 10
-        while True:  # the workers are gone with the parent
-            try:
-                os.killpg(process.pid, 0)
-            except ProcessLookupError:
-                break
-            assert time.monotonic() < deadline, 'workers outlived the study'
+        # The workers are gone with the parent: no process of its session is left (they run
+        # in process groups of their own, within it).
+        while session(process.pid):
+            assert time.monotonic() < deadline, f'workers outlived it: {session(process.pid)}'
             time.sleep(0.1)
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
+        for pid in session(process.pid):
+            os.kill(pid, signal.SIGKILL)
     kept = study.find_episodes([out / study.EPISODES_DIR])
     assert 1 <= len(kept) < 16
     # The rest on one worker process (the stopped run's two were what had to go with it).

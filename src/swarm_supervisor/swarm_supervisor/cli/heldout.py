@@ -40,15 +40,15 @@ def run(args: argparse.Namespace) -> int:
     from swarm_supervisor.evolution.heldout import PlanError, load_plan, run_chunks
     from swarm_supervisor.evolution.heldout_report import report
     from swarm_supervisor.evolution.heldout_stats import behaviour_table, figure, summarise
+    from swarm_supervisor.study import workers
     from swarm_supervisor.study.interrupt import Interrupted, StopRequest
-    from swarm_supervisor.study.workers import context
 
     plan = load_plan(args.plan)
     only = None if args.only is None else set(args.only.split(','))
     if only is not None and not only <= set(plan.controllers):
         raise PlanError(f"--only {args.only}: the plan's controllers are "
                         + ', '.join(plan.controllers))
-    pool = context().Pool(args.jobs) if args.jobs > 1 else None
+    pool = workers.pool(args.jobs) if args.jobs > 1 else None
     try:
         # Ctrl-C or SIGTERM stops it wherever it is (between chunks too, docs/study.md).
         with StopRequest():

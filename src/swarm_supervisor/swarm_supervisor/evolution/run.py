@@ -49,9 +49,9 @@ from swarm_supervisor.evolution.design import Design, EvolutionError
 from swarm_supervisor.evolution.fitness import evaluate
 from swarm_supervisor.evolution.genomes import save_genome, start_genome
 from swarm_supervisor.outputs.lock import hold
+from swarm_supervisor.study import workers
 from swarm_supervisor.study.cluster import CONNECT_TIMEOUT
 from swarm_supervisor.study.interrupt import raise_if_stopped
-from swarm_supervisor.study.workers import context
 
 #: The columns of generations.csv.
 COLUMNS = ('generation', 'best', 'mean', 'worst', 'sigma', 'wall_s')
@@ -177,7 +177,7 @@ def evolve(design: Design, out: Path, *, jobs: int = 1, scheduler: str | None = 
             raise
         cluster.close()
         return rows
-    pool = context().Pool(jobs) if jobs > 1 else None
+    pool = workers.pool(jobs) if jobs > 1 else None
     try:
         rows = _evolve(design, out, pool, jobs, shown, on_checkpoint)
     except BaseException:

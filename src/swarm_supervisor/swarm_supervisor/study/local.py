@@ -11,11 +11,11 @@ from tqdm import tqdm
 
 from mona_controller import plugins
 from mona_controller.plugins import Plugin
-from swarm_supervisor.study import progress
+from swarm_supervisor.study import progress, workers
 from swarm_supervisor.study.errors import StudyError
 from swarm_supervisor.study.interrupt import Interrupted
 from swarm_supervisor.study.tasks import EpisodeTask, run_and_write
-from swarm_supervisor.study.workers import START_METHOD, context
+from swarm_supervisor.study.workers import START_METHOD
 
 
 def available_cpus() -> int:
@@ -58,13 +58,13 @@ def run_local(batches: Sequence[Sequence[EpisodeTask]], jobs: int, shown: bool |
     pending = [task for batch in batches for task in batch]
     if not pending:
         return {}
-    workers = context(start_method)
-    counter = workers.Value('d', 0.0)
-    started = workers.Value('i', 0)  # workers started: more than ``jobs`` means one died
+    shared = workers.context(start_method)
+    counter = shared.Value('d', 0.0)
+    started = shared.Value('i', 0)  # workers started: more than ``jobs`` means one died
     total = sum(task.config.episode.duration for task in pending)
     ran: dict[str, tuple[float, float]] = {}
-    pool = workers.Pool(jobs, initializer=_init_worker,
-                        initargs=(counter, started, tuple(pending[0].config.plugins)))
+    pool = workers.pool(jobs, _init_worker, (counter, started, tuple(pending[0].config.plugins)),
+                        start_method)
     bar_format = '{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} ' \
                  '[{elapsed}<{remaining}]'
     disable = None if shown is None else not shown

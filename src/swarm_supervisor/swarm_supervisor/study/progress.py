@@ -7,7 +7,6 @@ counts each finished episode on another (:func:`show_done`).
 
 from __future__ import annotations
 
-import signal
 import sys
 from pathlib import Path
 
@@ -20,13 +19,10 @@ _counter = None  # sim seconds done, shared by every worker of this process's po
 
 
 def init_worker(counter) -> None:
-    """Pool initializer: share the progress counter; leave Ctrl-C to the parent, and let
-    SIGTERM (the parent terminating the pool) end the worker, also when it was forked with
-    the parent's handlers."""
+    """Pool initializer: share the progress counter (the signals are
+    :mod:`swarm_supervisor.study.workers`' business)."""
     global _counter
     _counter = counter
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def report(seconds: float) -> None:
