@@ -145,6 +145,23 @@ def test_the_weights_file_is_resolved_hashed_and_written_the_same_each_time(tmp_
     assert ControllerParams().network.weights_sha256 == ''
 
 
+def test_a_ctrl_c_while_the_weights_are_written_stays_a_ctrl_c(tmp_path, monkeypatch):
+    """A signal handler's exception raised amid the archive's writing (here where zipfile
+    sets up a member's compressor, where an interrupted evolution was seen to get it) reaches
+    the caller as itself, not as zipfile's ValueError, and no file is written."""
+    import zipfile
+
+    weights = weights_from_genome(np.ones(genome_size(K, 4, False)), K, 4, False)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(zipfile, '_get_compressor', interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        save_weights(tmp_path / 'w.npz', weights)
+    assert not list(tmp_path.iterdir())
+
+
 def test_bad_weights_are_refused_naming_the_key(tmp_path):
     def refused(match, **fields):
         with pytest.raises(ParameterError, match=match):

@@ -86,7 +86,8 @@ def cut_genome(genome: Sequence[float] | np.ndarray,
 def save_weights(path: str | Path, weights: Mapping[str, np.ndarray]) -> str:
     """Write ``weights`` as an .npz, the same bytes for the same weights; its SHA-256."""
     buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, 'w', zipfile.ZIP_STORED) as archive:
+    archive = zipfile.ZipFile(buffer, 'w', zipfile.ZIP_STORED)
+    try:
         for name in LAYERS:
             if name in weights:
                 array = io.BytesIO()
@@ -94,6 +95,15 @@ def save_weights(path: str | Path, weights: Mapping[str, np.ndarray]) -> str:
                                                                       dtype=np.float64))
                 archive.writestr(zipfile.ZipInfo(f'{name}.npy', (1980, 1, 1, 0, 0, 0)),
                                  array.getvalue())
+    except BaseException:
+        # An exception amid writestr (a Ctrl-C's, raised by a signal handler) can leave the
+        # archive marked as writing a member, and closing it, as a with block would, raises
+        # ValueError in that exception's place (an interrupted evolution exited 1 with a
+        # traceback, not 130). The unfinished archive is dropped: with no file, close(),
+        # also the one at garbage collection, does nothing.
+        archive.fp = None
+        raise
+    archive.close()
     data = buffer.getvalue()
     tmp = Path(f'{path}.tmp')
     tmp.write_bytes(data)
