@@ -29,6 +29,9 @@ EPISODES = 12
 #: test_sigterm_...'s: the same cells, of 60 s each, so that episodes still run when the
 #: signal comes however late a busy machine lets the test see the first one written.
 SIGTERM_DESIGN = {**DESIGN, 'duration': 60.0, 'snapshot_times': [0.0, 60.0]}
+#: test_a_study_killed_...'s: episodes long enough that its first batch is still running when
+#: the test, having seen the worker start, kills the study.
+KILL_DESIGN = {**DESIGN, 'duration': 2400.0, 'snapshot_times': [0.0, 2400.0]}
 #: test_ctrl_c_...'s: 16 episodes on two workers (here, not in test_study.py, whose
 #: module-scoped study would keep this slow test on that module's worker).
 CTRL_C_DESIGN = {'populations': [3, 5], 'speeds': [0.04, 0.08], 'seeds': [1, 2, 3, 4],
@@ -43,16 +46,17 @@ def command(config: Path, out: Path) -> list[str]:
             '--out', str(out), '--jobs', '1', '--batch-size', '2']
 
 
-def session(sid: int) -> list[int]:
-    """The live processes of session ``sid`` (zombies, which run nothing, left out)."""
-    found = []
+def session(sid: int) -> dict[int, int]:
+    """The live processes of session ``sid`` (zombies, which run nothing, left out): process
+    id -> its process group."""
+    found = {}
     for stat in Path('/proc').glob('[0-9]*/stat'):
         try:  # after the name: state, parent, process group, session, ...
-            state, _, _, member = stat.read_text().rsplit(')', 1)[1].split()[:4]
+            state, _, group, member = stat.read_text().rsplit(')', 1)[1].split()[:4]
         except (OSError, ValueError):
             continue  # gone meanwhile
         if int(member) == sid and state != 'Z':
-            found.append(int(stat.parent.name))
+            found[int(stat.parent.name)] = int(group)
     return found
 
 
@@ -188,6 +192,32 @@ def test_sigterm_and_a_second_ctrl_c_stop_at_once_and_leave_no_torn_folder(tmp_p
     record = json.loads((out / study.TIMING_FILE).read_text())['invocations'][-1]
     assert record['outcome'] == 'interrupted by SIGTERM'
     assert record['complete'] == len(written(out))
+
+
+def test_a_study_killed_outright_leaves_no_worker_writing(tmp_path):
+    """SIGKILL to the study alone (kill -9, the OOM killer): its worker, in a process group of
+    its own, ends with it, rather than finishing its batch and writing episodes that the same
+    command, run again to resume, would be writing too."""
+    out = tmp_path / 'out'
+    killed = StudyProcess(write_design(KILL_DESIGN, tmp_path / 'design.yaml'), out)
+    sid = killed.process.pid
+    try:
+        deadline = time.monotonic() + 120
+        while set(session(sid).values()) <= {sid}:  # a worker leaves the study's group
+            assert killed.process.poll() is None, killed.stderr()
+            assert time.monotonic() < deadline, 'no worker started'
+            time.sleep(0.02)
+        os.kill(sid, signal.SIGKILL)
+        killed.wait(60)
+        deadline = time.monotonic() + 10
+        while session(sid):
+            assert time.monotonic() < deadline, f'workers outlived it: {session(sid)}'
+            time.sleep(0.1)
+    finally:
+        killed.kill()
+        for pid in session(sid):
+            os.kill(pid, signal.SIGKILL)
+    assert written(out) == []
 
 
 @pytest.mark.slow
