@@ -1,6 +1,7 @@
 """The node system as real processes, started by scripts/swarm.sh: a 20 s lockstep episode of
 five robots (625 steps, 3 encounters) and what it leaves behind (the bag, the parity with the
-embedded runner, the online metrics), bad parameters, and Ctrl-C / SIGTERM to the script."""
+embedded runner, the online metrics), bad parameters, and Ctrl-C / SIGTERM / SIGKILL to the
+script."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -209,4 +211,25 @@ def test_signal_to_the_script_stops_everything_and_keeps_the_bag(swarm, sig):
     with Reader(bag_dir(run)) as reader:
         assert reader.message_count > 0
     assert 'closed' in run.log('metrics')
+
+
+def test_a_script_killed_outright_leaves_no_node_and_a_closed_bag(swarm):
+    """kill -9 of scripts/swarm.sh (the launcher it execs): no stop ladder can run, but each
+    node gets SIGINT as the launcher ends (Linux's parent-death signal, which the launcher
+    asks for as it starts them), so all end and the metrics node closes its bag. Before
+    2026-12-05 the nodes ran on."""
+    # 1000 s of sim time: minutes of wall time, so the nodes cannot end by finishing it.
+    run = swarm('--population', str(POPULATION), '--duration', '1000', '--seed', '4')
+    run.wait_running(after=3.0)
+    os.kill(run.process.pid, signal.SIGKILL)
+    assert run.wait(30) == -signal.SIGKILL
+    deadline = time.monotonic() + 30
+    while alive := [name for name, pgid in run.nodes().items() if group_alive(pgid)]:
+        assert time.monotonic() < deadline, f'still running 30 s after the launcher: {alive}'
+        time.sleep(0.25)
+    assert len(run.nodes()) == POPULATION + 3  # world, metrics, supervisor, the controllers
+    bag = read_episode_bag(bag_dir(run))  # strict: a bag closed properly
+    assert bag.seed == 4
+    assert 'closed' in run.log('metrics')
+    assert not run.shm_leftovers()
 

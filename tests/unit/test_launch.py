@@ -3,7 +3,10 @@ domain lock and the signal ladder (swarm_supervisor.system.launcher and .process
 
 from __future__ import annotations
 
+import contextlib
+import os
 import signal
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -248,3 +251,35 @@ def test_the_ladder_clears_a_group_whose_leader_ended(tmp_path: Path):
     while group_pids(process.pid):
         assert time.monotonic() < deadline, group_pids(process.pid)
         time.sleep(0.05)
+
+
+#: A launcher in miniature: starts `sleep 60` as the launcher starts a node (with SIGTERM on
+#: its death, or nothing), prints the sleep's pid, then waits to be killed.
+STARTER = ('import signal, sys, time\n'
+           'from pathlib import Path\n'
+           'from swarm_supervisor.system.processes import ros_environment, start_group\n'
+           'on_death = {on_death}\n'
+           'node = start_group(["sleep", "60"], Path(sys.argv[1]), ros_environment(0),\n'
+           '                   on_parent_death=on_death)\n'
+           'print(node.pid, flush=True)\n'
+           'time.sleep(60)\n')
+
+
+@pytest.mark.parametrize('on_death', [signal.SIGTERM, None], ids=['SIGTERM', 'nothing'])
+def test_a_node_hears_of_its_launchers_death_when_asked(tmp_path: Path, on_death):
+    starter = subprocess.Popen(
+        [sys.executable, '-c', STARTER.format(on_death=on_death and int(on_death)),
+         str(tmp_path / 'sleep.log')], stdout=subprocess.PIPE, text=True)
+    node = int(starter.stdout.readline())
+    try:
+        starter.kill()  # SIGKILL: no handler of the launcher runs
+        starter.wait()
+        deadline = time.monotonic() + 10
+        while group_pids(node) and on_death is not None:
+            assert time.monotonic() < deadline, 'the node outlived its launcher'
+            time.sleep(0.05)
+        # Without the request it runs on (was the launcher's way until 2026-12-05).
+        assert bool(group_pids(node)) == (on_death is None)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(node, signal.SIGKILL)

@@ -137,7 +137,7 @@ class Run:
         """Start a node (its own process group, logs/<name>.log) and list it in processes.tsv.
         It inherits the domain's lock: the domain stays taken while any node lives."""
         process = start_group(command, self.out / 'logs' / f'{name}.log', self.env,
-                              self.pass_fds)
+                              self.pass_fds, on_parent_death=signal.SIGINT)
         self.nodes[name] = process
         with open(self.out / 'processes.tsv', 'a') as table:
             table.write(f'{name}\t{process.pid}\t{" ".join(command)}\n')

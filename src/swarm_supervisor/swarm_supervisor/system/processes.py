@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import os
 import re
-import resource
 import signal
 import socket
 import subprocess
@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import IO
 
 from swarm_supervisor.config import shipped
+from swarm_supervisor.system import child
 
 #: The Fast DDS profile of every run: loopback only, no shared memory (docs/running.md); a
 #: shipped file (:func:`~swarm_supervisor.config.shipped`).
@@ -200,23 +201,18 @@ def python_bin() -> Path:
     return Path(sys.executable).parent
 
 
-def _child_setup() -> None:
-    """In a node process before exec: SIGINT and SIGQUIT as default (a background job starts
-    with them ignored, and the nodes must stop on SIGINT), and no core file from SIGABRT."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGQUIT, signal.SIG_DFL)
-    resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
-
-
 def start_group(command: Sequence[str], log: Path, env: Mapping[str, str],
-                pass_fds: Sequence[int] = ()) -> subprocess.Popen:
+                pass_fds: Sequence[int] = (), on_parent_death: int | None = None
+                ) -> subprocess.Popen:
     """Start ``command`` in its own session and process group (so a Ctrl-C in the terminal
     does not reach it), stdin from /dev/null, stdout and stderr to ``log``; ``pass_fds`` are
-    inherited (the domain's lock)."""
+    inherited (the domain's lock). With ``on_parent_death``, it gets that signal when this
+    thread ends (:mod:`.child`): call from a thread that lasts as long as this process."""
+    setup = functools.partial(child.setup, os.getpid(), on_parent_death)
     with open(log, 'wb') as output:
         return subprocess.Popen(list(command), stdin=subprocess.DEVNULL, stdout=output,
                                 stderr=subprocess.STDOUT, env=dict(env), pass_fds=pass_fds,
-                                start_new_session=True, preexec_fn=_child_setup)
+                                start_new_session=True, preexec_fn=setup)
 
 
 def signal_group(process: subprocess.Popen, sig: int) -> None:
