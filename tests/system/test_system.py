@@ -219,15 +219,15 @@ def test_a_script_killed_outright_leaves_no_node_and_a_closed_bag(swarm):
     asks for as it starts them), so all end and the metrics node closes its bag. Before
     2026-12-05 the nodes ran on."""
     # 1000 s of sim time: minutes of wall time, so the nodes cannot end by finishing it.
-    run = swarm('--population', str(POPULATION), '--duration', '1000', '--seed', '4')
-    run.wait_running(after=3.0)
+    run = swarm('--population', '2', '--duration', '1000', '--seed', '4')
+    run.wait_running(after=0.5)
     os.kill(run.process.pid, signal.SIGKILL)
     assert run.wait(30) == -signal.SIGKILL
     deadline = time.monotonic() + 30
     while alive := [name for name, pgid in run.nodes().items() if group_alive(pgid)]:
         assert time.monotonic() < deadline, f'still running 30 s after the launcher: {alive}'
         time.sleep(0.25)
-    assert len(run.nodes()) == POPULATION + 3  # world, metrics, supervisor, the controllers
+    assert len(run.nodes()) == 2 + 3  # world, metrics, supervisor, the controllers
     bag = read_episode_bag(bag_dir(run))  # strict: a bag closed properly
     assert bag.seed == 4
     assert 'closed' in run.log('metrics')
