@@ -47,8 +47,8 @@ run: venv
 
 # pytest-xdist workers: more than the cores, since many tests wait on processes, the clock
 # or a browser rather than compute (tests/README.md). On 2 cores, from a clean clone
-# (2026-12-05): 11.2 - 11.6 min wall idle (pytest 634 - 654 s), 15.8 min (pytest 873 - 875 s) under
-# ../shared/tools/under-load.
+# with no caches (2026-12-05): 11.6 - 11.8 min wall idle (pytest 660 - 668 s), 15.5 min (pytest
+# 853 - 858 s) under ../shared/tools/under-load.
 # 6 workers were slower idle (16.5 min, pytest 898 s, the same commit); 5 no faster (pytest
 # 861 s against 855 s with 4, one venv); 3 slower (pytest 706 s against 686 s, 4.4 % idle).
 TEST_JOBS ?= 4
